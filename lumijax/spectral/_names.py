@@ -117,8 +117,8 @@ def _lookup(reg: _Registry, name: str):
     if key in reg.entries:
         return reg.entries[key]
     for prefix in ("cieilluminant", "illuminant", "cie"):
-        if key.startswith(prefix) and key[len(prefix):] in reg.entries:
-            return reg.entries[key[len(prefix):]]
+        if key.startswith(prefix) and key[len(prefix) :] in reg.entries:
+            return reg.entries[key[len(prefix) :]]
     return None
 
 

@@ -65,9 +65,7 @@ def _warn(message: str) -> None:
 
 def _check_kind(kind: object, key: str | None = None) -> str:
     if kind not in KINDS:
-        raise SpectrumError(
-            f"kind must be 'emission' or 'reflectance', got {kind!r}", key=key
-        )
+        raise SpectrumError(f"kind must be 'emission' or 'reflectance', got {kind!r}", key=key)
     return kind  # type: ignore[return-value]
 
 
@@ -100,13 +98,9 @@ def check_spectrum(
     except (TypeError, ValueError) as exc:
         raise fail(f"wavelengths and values must be numbers ({exc})") from None
     if wl.ndim != 1 or v.ndim != 1:
-        raise fail(
-            f"wavelengths and values must be 1-D, got shapes {wl.shape} and {v.shape}"
-        )
+        raise fail(f"wavelengths and values must be 1-D, got shapes {wl.shape} and {v.shape}")
     if wl.shape != v.shape:
-        raise fail(
-            f"{wl.size} wavelengths but {v.size} values: they must pair up one to one"
-        )
+        raise fail(f"{wl.size} wavelengths but {v.size} values: they must pair up one to one")
     if wl.size < 2:
         raise fail(f"a spectrum needs at least 2 samples, got {wl.size}")
 
@@ -155,9 +149,7 @@ def check_spectrum(
             f"at most {MAX_EXTRAPOLATION_NM:g} nm missing at either end can be extrapolated{hint}"
         )
     if warn and (gap_lo > 0.0 or gap_hi > 0.0):
-        rule = (
-            "as zero (emission)" if kind == "emission" else "as the end value (reflectance)"
-        )
+        rule = "as zero (emission)" if kind == "emission" else "as the end value (reflectance)"
         where = ""
         if file is not None:
             where = f"{file}: "
@@ -223,15 +215,11 @@ class Spectrum:
         )
 
     def __hash__(self) -> int:
-        return hash(
-            (self.kind, self.name, self.wavelengths_nm.tobytes(), self.values.tobytes())
-        )
+        return hash((self.kind, self.name, self.wavelengths_nm.tobytes(), self.values.tobytes()))
 
     def __repr__(self) -> str:
         wl = self.wavelengths_nm
-        return (
-            f"Spectrum({self.name!r}, {self.kind}, {wl[0]:g}-{wl[-1]:g} nm, {wl.size} samples)"
-        )
+        return f"Spectrum({self.name!r}, {self.kind}, {wl[0]:g}-{wl[-1]:g} nm, {wl.size} samples)"
 
     # ------------------------------------------------------------------------- evaluation
     def at(self, wavelengths_nm: object) -> np.ndarray:
