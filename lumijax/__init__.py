@@ -22,3 +22,10 @@ try:
     __version__ = version("lumijax")
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0.0.0+unknown"
+
+from ._study import Study as Study, compute as compute, load_study as load_study
+from .results import (
+    GridResult as GridResult,
+    Results as Results,
+    write_results as write_results,
+)

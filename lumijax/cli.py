@@ -1,0 +1,163 @@
+"""``lumijax`` command line: a thin layer over the Python API.
+
+    lumijax run CONFIG [--out DIR] [--no-images] [--no-shadows]
+    lumijax check CONFIG [--json]
+    lumijax demo [--out DIR]
+
+Errors from bad input are printed as one line naming the file and key, without a traceback, and
+the exit status is 1 (2 for a bad command line).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _console():
+    from rich.console import Console
+
+    return Console(stderr=False, highlight=False)
+
+
+def _progress_bar(console, description: str):
+    """A rich progress bar that shows only when work takes more than a moment."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    progress = Progress(
+        TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+        TimeElapsedColumn(), console=console, transient=True, disable=not console.is_terminal,
+    )
+    task = progress.add_task(description, total=None)
+
+    def update(done: int, total: int) -> None:
+        progress.update(task, completed=done, total=total)
+
+    return progress, update
+
+
+def _summary_table(results, console) -> None:
+    from rich.table import Table
+
+    table = Table(title=f"{results.study}: illuminance per grid", title_justify="left")
+    for col in ("grid", "points", "Eavg (lx)", "Emin (lx)", "Emax (lx)", "U0", "target (lx)"):
+        table.add_column(col, justify="left" if col == "grid" else "right")
+    for name, g in results.grids.items():
+        s = g.stats
+        target = "" if g.target_lux is None else (
+            f"{g.target_lux:g} {'✓' if s['avg'] >= g.target_lux else '✗'}")
+        table.add_row(name, str(len(g.points)), f"{s['avg']:.1f}", f"{s['min']:.1f}",
+                      f"{s['max']:.1f}", f"{s['u0']:.2f}", target)
+    console.print(table)
+
+
+def _run(config: Path, out: Path, *, images: bool, shadows: bool, console) -> int:
+    from ._study import compute, load_study
+    from .results import write_results
+
+    t0 = time.perf_counter()
+    study = load_study(config)
+    progress, update = _progress_bar(console, "direct light")
+    with progress:
+        results = compute(study, shadows=shadows, progress=update)
+    paths = write_results(results, out, images=images)
+    _summary_table(results, console)
+    n = results.counts.get("shadow_rays", 0)
+    console.print(
+        f"wrote {len(paths)} files to {out} in {time.perf_counter() - t0:.1f} s "
+        f"({n:,} shadow rays)"
+    )
+    return 0
+
+
+def _check(config: Path, *, as_json: bool, console) -> int:
+    from ._study import load_study
+
+    summary = load_study(config).summary()
+    if as_json:
+        print(json.dumps({k: v for k, v in summary.items() if k != "study"}, indent=1))
+        return 0
+    from rich.table import Table
+
+    console.print(f"[bold]{summary['study']}[/bold]: {config}")
+    console.print(
+        f"{summary['triangles']:,} triangles, {summary['luminaires']:,} luminaires, "
+        f"{summary['networks']} networks, {summary['grid_points']:,} grid points"
+    )
+    table = Table(title="photometry", title_justify="left")
+    for col in ("name", "rated (lm)", "integrated (lm)"):
+        table.add_column(col, justify="left" if col == "name" else "right")
+    for name, p in summary["photometry"].items():
+        rated = "—" if p["rated_lm"] is None else f"{p['rated_lm']:.1f}"
+        table.add_row(name, rated, f"{p['integrated_lm']:.1f}")
+    console.print(table)
+    console.print("config is valid")
+    return 0
+
+
+def default_study_path() -> Path:
+    """The bundled default study (a small courtyard facade)."""
+    return Path(__file__).parent / "data" / "studies" / "default" / "study.toml"
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    p = argparse.ArgumentParser(
+        prog="lumijax", description="Differentiable radiosity lighting design for architecture."
+    )
+    p.add_argument("--version", action="version", version=f"lumijax {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="compute a study and write results.json, CSV and images")
+    run.add_argument("config", type=Path)
+    run.add_argument("--out", type=Path, default=None, help="output folder (default: CONFIG's "
+                     "name + '-out' beside it)")
+    run.add_argument("--no-images", action="store_true", help="skip the false-colour images")
+    run.add_argument("--no-shadows", action="store_true", help="ignore occlusion (photometry only)")
+    check = sub.add_parser("check", help="validate a config and print what it holds")
+    check.add_argument("config", type=Path)
+    check.add_argument("--json", action="store_true", help="print a JSON summary")
+    demo = sub.add_parser("demo", help="run the bundled default study")
+    demo.add_argument("--out", type=Path, default=Path("lumijax-demo"))
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``lumijax`` command; returns the exit status."""
+    from .errors import LumijaxError, LumijaxWarning
+
+    args = _parser().parse_args(argv)
+    console = _console()
+
+    def show_warning(message, category, filename, lineno, file=None, line=None):
+        console.print(f"[yellow]warning:[/yellow] {message}")
+
+    warnings.showwarning = show_warning
+    warnings.simplefilter("default", LumijaxWarning)
+    try:
+        if args.command == "check":
+            return _check(args.config, as_json=args.json, console=console)
+        if args.command == "demo":
+            console.print(f"lumijax demo: {default_study_path()}")
+            return _run(default_study_path(), args.out, images=True, shadows=True,
+                        console=console)
+        out = args.out if args.out is not None else args.config.with_name(
+            args.config.stem + "-out")
+        return _run(args.config, out, images=not args.no_images, shadows=not args.no_shadows,
+                    console=console)
+    except LumijaxError as e:
+        print(f"lumijax: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("lumijax: interrupted; nothing was written", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,12 @@
+"""Direct illuminance from luminaires and area sources, with shadows (docs/conventions.md)."""
+
+from ._direct import (
+    DirectLighting as DirectLighting,
+    direct_illuminance as direct_illuminance,
+    sub_source_offsets as sub_source_offsets,
+)
+from ._kernels import (
+    point_illuminance as point_illuminance,
+    polygon_form_factor as polygon_form_factor,
+    quad_form_factors as quad_form_factors,
+)

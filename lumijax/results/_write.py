@@ -1,0 +1,93 @@
+"""Write a study's results atomically: results.json, grids/NAME.csv, images/NAME.png.
+
+Everything is first written into a staging folder beside the output folder; only when every
+file is complete are they moved into place, each by an atomic rename. A failure half-way leaves
+the output folder as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OutputError
+from ._results import Results
+
+__all__ = ["write_results", "atomic_write_text"]
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file and an atomic rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _grid_csv(points: np.ndarray, lux: np.ndarray) -> str:
+    rows = np.column_stack([points, lux])
+    body = "\n".join(",".join(f"{x:.6g}" for x in r[:3]) + f",{r[3]:.6g}" for r in rows)
+    return "x,y,z,lux\n" + body + "\n"
+
+
+def write_results(results: Results, out_dir: str | Path, *, images: bool = True) -> dict[str, Path]:
+    """Write results into ``out_dir`` (created if needed) and return the paths written.
+
+    Files: ``results.json`` (the documented contract, docs/results.md), ``grids/NAME.csv``
+    (x, y, z in m; lux) and, with ``images``, ``images/NAME.png`` false-colour iso-lux maps.
+    """
+    out_dir = Path(out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OutputError(f"cannot create output folder: {e.strerror}", file=out_dir) from None
+    if not os.access(out_dir, os.W_OK):
+        raise OutputError("output folder is not writable", file=out_dir)
+    staging = Path(tempfile.mkdtemp(dir=out_dir, prefix=".staging-"))
+    try:
+        written: dict[str, Path] = {}
+        (staging / "results.json").write_text(
+            json.dumps(results.to_dict(), indent=1, allow_nan=False), encoding="utf-8"
+        )
+        written["results.json"] = Path("results.json")
+        (staging / "grids").mkdir()
+        for name, g in results.grids.items():
+            (staging / "grids" / f"{name}.csv").write_text(
+                _grid_csv(g.points, g.illuminance_lux), encoding="utf-8"
+            )
+            written[f"grids/{name}.csv"] = Path("grids") / f"{name}.csv"
+        if images and results.grids:
+            from ..report import falsecolour_map
+
+            (staging / "images").mkdir()
+            for name, g in results.grids.items():
+                normal = g.normals.mean(axis=0)
+                falsecolour_map(
+                    g.points, g.illuminance_lux, staging / "images" / f"{name}.png",
+                    shape=g.shape, normal=normal if np.linalg.norm(normal) > 0 else None,
+                    title=f"{results.study} — {name}",
+                )
+                written[f"images/{name}.png"] = Path("images") / f"{name}.png"
+        final: dict[str, Path] = {}
+        for key, rel in written.items():
+            dest = out_dir / rel
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(staging / rel, dest)
+            final[key] = dest
+        return final
+    except OSError as e:
+        raise OutputError(f"cannot write results: {e}", file=out_dir) from None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)

@@ -1,0 +1,116 @@
+"""Occlusion and first-hit queries on the scene's triangles, through Embree (embreex).
+
+Embree is the fastest CPU ray engine there is, and trimesh already depends on it; we call its
+scene directly because trimesh's wrapper has no per-ray ``tfar`` (the segment length), which a
+shadow ray needs. Queries are chunked so that memory stays flat whatever the ray count.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from jaxtyping import Bool, Float, Int
+
+from ..errors import GeometryError
+
+_CHUNK = 1 << 20  # rays per Embree call: large enough to amortise, small enough for memory
+
+
+class RayCaster:
+    """Shadow and first-hit rays against a fixed triangle soup.
+
+    Parameters
+    ----------
+    triangles
+        ``(T, 3, 3)`` vertex positions in metres.
+
+    Notes
+    -----
+    Embree works in float32. The scene is shifted to start at the origin of its bounding box
+    before conversion so that large site coordinates (a courtyard in a national grid) keep their
+    precision; each ray's origin is nudged along its direction by ``epsilon`` (scaled by the
+    scene size) so that it does not hit the surface it starts on.
+    """
+
+    def __init__(self, triangles: Float[np.ndarray, "tri 3 3"]) -> None:
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        tri = np.asarray(triangles, dtype=np.float64)
+        if tri.ndim != 3 or tri.shape[1:] != (3, 3):
+            raise GeometryError(f"triangles must have shape (T, 3, 3), got {tri.shape}")
+        if not np.all(np.isfinite(tri)):
+            raise GeometryError("triangles contain NaN or infinite coordinates")
+        self.n_triangles = len(tri)
+        if self.n_triangles:
+            lo, hi = tri.reshape(-1, 3).min(0), tri.reshape(-1, 3).max(0)
+        else:
+            lo = hi = np.zeros(3)
+        self.origin = lo
+        self.extent = float(np.max(hi - lo)) if self.n_triangles else 1.0
+        self.epsilon = 1e-5 * max(self.extent, 1.0)
+        self._scene = None
+        if self.n_triangles:
+            verts = (tri.reshape(-1, 3) - lo).astype(np.float32)
+            faces = np.arange(len(verts), dtype=np.int32).reshape(-1, 3)
+            self._scene = rtcore_scene.EmbreeScene()
+            TriangleMesh(scene=self._scene, vertices=verts, indices=faces)
+
+    def occluded(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        targets: Float[np.ndarray, "rays 3"],
+    ) -> Bool[np.ndarray, " rays"]:
+        """Whether the open segment from each origin to its target is blocked by a triangle.
+
+        Both ends are pulled in by ``epsilon`` so that the surfaces a segment starts and ends on
+        do not count as blockers.
+        """
+        origins = np.broadcast_to(np.asarray(origins, np.float64), np.shape(targets))
+        targets = np.asarray(targets, np.float64)
+        n = len(targets)
+        out = np.zeros(n, dtype=bool)
+        if self._scene is None or n == 0:
+            return out
+        for s in range(0, n, _CHUNK):
+            o, t = origins[s : s + _CHUNK], targets[s : s + _CHUNK]
+            d = t - o
+            length = np.linalg.norm(d, axis=1)
+            ok = length > 2 * self.epsilon
+            d = d / np.where(ok, length, 1.0)[:, None]
+            start = (o - self.origin) + self.epsilon * d
+            tfar = np.where(ok, length - 2 * self.epsilon, 0.0)
+            hit = self._scene.run(
+                start.astype(np.float32),
+                d.astype(np.float32),
+                dists=tfar.astype(np.float32),
+                query="OCCLUDED",
+            )
+            out[s : s + _CHUNK] = (np.asarray(hit) >= 0) & ok
+        return out
+
+    def first_hit(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        directions: Float[np.ndarray, "rays 3"],
+    ) -> tuple[Int[np.ndarray, " rays"], Float[np.ndarray, " rays"]]:
+        """The first triangle hit along each ray (−1 for none) and its distance (inf for none)."""
+        origins = np.broadcast_to(np.asarray(origins, np.float64), np.shape(directions))
+        directions = np.asarray(directions, np.float64)
+        n = len(directions)
+        tri = np.full(n, -1, dtype=np.int64)
+        dist = np.full(n, np.inf)
+        if self._scene is None or n == 0:
+            return tri, dist
+        for s in range(0, n, _CHUNK):
+            d = directions[s : s + _CHUNK]
+            d = d / np.linalg.norm(d, axis=1, keepdims=True)
+            start = (origins[s : s + _CHUNK] - self.origin) + self.epsilon * d
+            res = self._scene.run(
+                start.astype(np.float32), d.astype(np.float32), output=1
+            )
+            prim = np.asarray(res["primID"], dtype=np.int64)
+            t = np.asarray(res["tfar"], dtype=np.float64)
+            hit = prim >= 0
+            tri[s : s + _CHUNK] = np.where(hit, prim, -1)
+            dist[s : s + _CHUNK] = np.where(hit, t + self.epsilon, np.inf)
+        return tri, dist

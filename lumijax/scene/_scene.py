@@ -1,0 +1,295 @@
+"""A study's scene: everything in world space and SI units, built once from a validated config."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from ..config import StudyConfig
+from ..errors import ConfigError, GeometryError, LumijaxError
+from ._elements import AreaSource, Grid, Luminaire, Material, Network, plane_grid_points
+from ._frames import Frame, aim_angles_towards, resolve_group_frames
+from ._geometry import (
+    Triangles,
+    box_triangles,
+    check_triangles,
+    load_mesh_triangles,
+    place,
+    rectangle_triangles,
+)
+from ._raycast import RayCaster
+
+__all__ = ["Scene", "build_scene"]
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """Geometry, materials, luminaires, networks and grids of one study, in world space."""
+
+    name: str
+    source: Path | None
+    triangles: Triangles
+    materials: tuple[Material, ...]
+    groups: tuple[str, ...]
+    photometries: dict = field(repr=False)
+    luminaires: tuple[Luminaire, ...]
+    area_sources: tuple[AreaSource, ...]
+    networks: tuple[Network, ...]
+    grids: tuple[Grid, ...]
+
+    @cached_property
+    def raycaster(self) -> RayCaster:
+        """Embree scene over all triangles (built on first use)."""
+        return RayCaster(self.triangles.vertices)
+
+    @property
+    def network_names(self) -> tuple[str, ...]:
+        return tuple(n.name for n in self.networks)
+
+    @property
+    def dimmers(self) -> np.ndarray:
+        return np.array([n.dimmer for n in self.networks])
+
+    def grid(self, name: str) -> Grid:
+        for g in self.grids:
+            if g.name == name:
+                return g
+        raise KeyError(f"no grid named {name!r}; grids: {', '.join(g.name for g in self.grids)}")
+
+    def network_flux_lm(self) -> dict[str, float]:
+        """Each network's luminous flux at dimmer 1: Σ integrated flux × scale (lm)."""
+        out = {n.name: 0.0 for n in self.networks}
+        for lum in self.luminaires:
+            out[lum.network] += self.photometries[lum.photometry].integrated_lm * lum.scale
+        for a in self.area_sources:
+            out[a.network] += a.flux_lm * a.maintenance_factor
+        return out
+
+
+def build_scene(cfg: StudyConfig) -> Scene:
+    """Turn a validated config into a :class:`Scene`.
+
+    Reads photometry, spectra and mesh files; every failure becomes a :class:`LumijaxError`
+    naming the config file and key.
+    """
+    from .. import photometry as _phot
+    read_photometry = _phot.read_photometry
+    isotropic = getattr(_phot, "isotropic", None)
+    lambertian = getattr(_phot, "lambertian", None)
+
+    src = cfg.source
+    frames = resolve_group_frames(cfg.groups)
+    group_names = tuple(cfg.groups)
+
+    def frame_of(group: str | None) -> Frame:
+        return Frame.identity() if group is None else frames[group]
+
+    def rekey(e: LumijaxError, key: str) -> LumijaxError:
+        # Keep the file a problem is in (a photometry or mesh file); name the config key too.
+        if e.file is not None and src is not None and Path(e.file) != src:
+            return type(e)(f"{e.message} (from {src}: {key})", file=e.file, line=e.line, key=e.key)
+        return type(e)(e.message, file=src, key=key if e.key is None else f"{key}: {e.key}")
+
+    materials = tuple(_material(name, m, src) for name, m in cfg.materials.items())
+    material_index = {m.name: i for i, m in enumerate(materials)}
+
+    verts, item, mat, grp, closed = [], [], [], [], []
+    for i, g in enumerate(cfg.geometry):
+        key = f"geometry[{i}]"
+        frame = frame_of(g.group)
+        is_closed = False
+        if g.kind == "box":
+            tri = box_triangles(g.min, g.max, inward=g.normals == "inward")
+            is_closed = g.normals == "outward"
+        elif g.kind == "rectangle":
+            if np.linalg.norm(np.cross(g.u, g.v)) <= 1e-12:
+                raise ConfigError("'u' and 'v' are parallel or zero: the rectangle has no area",
+                                  file=src, key=key)
+            tri = rectangle_triangles(g.origin, g.u, g.v)
+        else:
+            try:
+                tri, is_closed = load_mesh_triangles(g.file, units=g.units, key=f"{key}.file")
+                check_triangles(tri, key=f"{key}.file", file=g.file)
+            except LumijaxError as e:
+                raise rekey(e, f"{key}.file") from None
+            if g.flip_normals:
+                tri = tri[:, ::-1]
+                is_closed = False
+        tri = place(tri, frame)
+        verts.append(tri)
+        n = len(tri)
+        item.append(np.full(n, i))
+        mat.append(np.full(n, material_index[g.material]))
+        grp.append(np.full(n, -1 if g.group is None else group_names.index(g.group)))
+        closed.append(is_closed)
+    triangles = Triangles(
+        vertices=np.concatenate(verts) if verts else np.zeros((0, 3, 3)),
+        item=np.concatenate(item) if item else np.zeros(0, int),
+        material=np.concatenate(mat) if mat else np.zeros(0, int),
+        group=np.concatenate(grp) if grp else np.zeros(0, int),
+        closed=np.array(closed, bool),
+    )
+
+    photometries = {}
+    for name, p in cfg.photometry.items():
+        try:
+            if hasattr(p, "file"):
+                photometries[name] = read_photometry(p.file)
+            elif p.kind == "isotropic":
+                photometries[name] = isotropic(p.flux_lm)
+            else:
+                photometries[name] = lambertian(p.flux_lm)
+        except LumijaxError as e:
+            raise rekey(e, f"photometry.{name}") from None
+
+    if cfg.networks:
+        networks = tuple(Network(n, c.dimmer, c.description) for n, c in cfg.networks.items())
+    else:  # no [networks] table: every network a luminaire names exists, at full output
+        used = dict.fromkeys(lum.network for lum in cfg.luminaires)
+        networks = tuple(Network(n) for n in used)
+
+    luminaires, areas = [], []
+    for i, lum in enumerate(cfg.luminaires):
+        key = f"luminaires[{i}]"
+        frame = frame_of(lum.group)
+        spectrum = _spectrum(lum.spectrum, src, f"{key}.spectrum")
+        if lum.kind == "area":
+            u, v = frame.vectors(lum.u), frame.vectors(lum.v)
+            if np.linalg.norm(np.cross(u, v)) <= 1e-12:
+                raise ConfigError("'u' and 'v' are parallel or zero: the source has no area",
+                                  file=src, key=key)
+            areas.append(AreaSource(
+                name=lum.name, origin=frame.points(lum.origin), u=u, v=v, flux_lm=lum.flux_lm,
+                network=lum.network, maintenance_factor=lum.maintenance_factor,
+                spectrum=spectrum, config_index=i,
+            ))
+            continue
+        position = frame.points(lum.position)
+        rot = frame.rotation
+        spin = lum.aim.spin if lum.aim is not None else 0.0
+        if lum.aim_at is not None:
+            direction = rot.T @ (frame.points(lum.aim_at) - position)
+            tilt, pan = aim_angles_towards(direction)
+        else:
+            tilt = lum.aim.tilt if lum.aim is not None else 0.0
+            pan = lum.aim.pan if lum.aim is not None else 0.0
+        phot = photometries[lum.photometry]
+        tilt_factor = 1.0
+        if getattr(phot, "tilt", None) is not None:
+            tilt_factor = float(phot.tilt.factor(tilt))
+        luminaires.append(Luminaire(
+            name=lum.name, photometry=lum.photometry, position=position, tilt=tilt, pan=pan,
+            spin=spin, network=lum.network,
+            scale=lum.multiplier * lum.maintenance_factor * tilt_factor,
+            frame_rotation=rot, spectrum=spectrum, config_index=i,
+        ))
+
+    grids = tuple(_grid(g, frame_of(g.group), src, f"grids[{i}]") for i, g in enumerate(cfg.grids))
+
+    scene = Scene(
+        name=cfg.study.name, source=src, triangles=triangles, materials=materials,
+        groups=group_names, photometries=photometries, luminaires=tuple(luminaires),
+        area_sources=tuple(areas), networks=networks, grids=grids,
+    )
+    _check_luminaires_outside_solids(scene, cfg, src)
+    return scene
+
+
+def _material(name: str, m, src) -> Material:
+    from ..spectral import Spectrum, luminous_reflectance
+
+    key = f"materials.{name}"
+    try:
+        if m.srgb is not None:
+            refl = Spectrum.from_srgb(m.srgb, name=name)
+        elif isinstance(m.reflectance, float | int):
+            refl = Spectrum.grey(float(m.reflectance), name=name)
+        elif isinstance(m.reflectance, Path):
+            refl = Spectrum.from_csv(m.reflectance, "reflectance", name=name)
+        else:
+            refl = Spectrum.from_name(m.reflectance, "reflectance")
+        rho = luminous_reflectance(refl, Spectrum.from_name("E", "emission"))
+    except LumijaxError as e:
+        raise ConfigError(e.message, file=src if e.file is None else e.file, line=e.line,
+                          key=key) from None
+    if not rho < 1.0:
+        raise ConfigError(f"reflectance must be < 1 (got {rho:.4f})", file=src, key=key)
+    return Material(name, refl, float(rho))
+
+
+def _spectrum(value, src, key):
+    if value is None:
+        return None
+    from ..spectral import Spectrum
+
+    try:
+        if isinstance(value, Path):
+            return Spectrum.from_csv(value, "emission")
+        return Spectrum.from_name(value, "emission")
+    except LumijaxError as e:
+        raise ConfigError(e.message, file=src if e.file is None else e.file, line=e.line,
+                          key=key) from None
+
+
+def _grid(g, frame: Frame, src, key: str) -> Grid:
+    if g.kind == "points":
+        pts = frame.points(np.asarray(g.points, np.float64))
+        normals = np.broadcast_to(np.asarray(g.normals, np.float64), np.shape(g.points))
+        if np.any(np.linalg.norm(normals, axis=1) == 0):
+            raise ConfigError("a normal is the zero vector", file=src, key=f"{key}.normals")
+        return Grid(g.name, pts, frame.normals(normals).copy(), target_lux=g.target_lux)
+    u, v = frame.vectors(g.u), frame.vectors(g.v)
+    cross = np.cross(u, v)
+    if np.linalg.norm(cross) <= 1e-12:
+        raise ConfigError("'u' and 'v' are parallel or zero: the grid has no area",
+                          file=src, key=key)
+    if g.spacing is not None:
+        nu = max(1, int(round(np.linalg.norm(u) / g.spacing)))
+        nv = max(1, int(round(np.linalg.norm(v) / g.spacing)))
+    else:
+        nu, nv = g.nu, g.nv
+    if nu * nv > 10_000_000:
+        raise ConfigError(f"{nu} × {nv} points is more than 10⁷; use a coarser spacing",
+                          file=src, key=key)
+    origin = frame.points(g.origin)
+    if g.normal is not None:
+        if np.linalg.norm(g.normal) == 0:
+            raise ConfigError("'normal' is the zero vector", file=src, key=f"{key}.normal")
+        n = frame.normals(np.asarray(g.normal, np.float64))
+    else:
+        n = cross / np.linalg.norm(cross)
+    pts = plane_grid_points(origin, u, v, nu, nv)
+    return Grid(g.name, pts, np.broadcast_to(n, pts.shape).copy(), shape=(nu, nv),
+                origin=origin, u=u, v=v, target_lux=g.target_lux)
+
+
+def _check_luminaires_outside_solids(scene: Scene, cfg: StudyConfig, src) -> None:
+    """A light inside a closed solid lights nothing: almost surely a placement error."""
+    tri = scene.triangles
+    closed_items = np.flatnonzero(tri.closed)
+    if not len(closed_items) or not scene.luminaires:
+        return
+    import trimesh
+
+    positions = np.array([lum.position for lum in scene.luminaires])
+    for item in closed_items:
+        sel = tri.item == item
+        v = tri.vertices[sel].reshape(-1, 3)
+        mesh = trimesh.Trimesh(v, np.arange(len(v)).reshape(-1, 3), process=True)
+        lo, hi = mesh.bounds
+        cand = np.flatnonzero(np.all((positions > lo) & (positions < hi), axis=1))
+        if not len(cand):
+            continue
+        inside = mesh.contains(positions[cand])
+        if inside.any():
+            lum = scene.luminaires[cand[int(np.argmax(inside))]]
+            raise GeometryError(
+                f"luminaire {lum.name!r} at {np.round(lum.position, 4).tolist()} is inside the "
+                f"closed solid geometry[{item}]: it would light nothing. Move it outside, or use "
+                "normals = \"inward\" if that box is a room",
+                file=src,
+                key=f"luminaires[{lum.config_index}].position",
+            )
