@@ -1,0 +1,8 @@
+"""Meshing into radiosity patches and admissible block partitioning (see ``docs/radiosity.md``)."""
+
+from ._partition import Partition as Partition, partition as partition
+from ._patches import (
+    Patches as Patches,
+    mesh_patches as mesh_patches,
+    subdivide_triangles as subdivide_triangles,
+)

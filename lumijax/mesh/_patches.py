@@ -1,0 +1,177 @@
+"""Radiosity patches: the scene's triangles subdivided into pieces of about one size.
+
+Each input triangle is split by a regular barycentric grid into n² congruent sub-triangles, with
+n = ceil(longest edge / patch_size). Every patch is therefore a triangle with the orientation (and
+so the front face, see ``docs/conventions.md``) of its source triangle, and every patch of one
+triangle has the same area, which keeps the radiosity system well scaled.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import equinox as eqx
+import numpy as np
+from jaxtyping import Float, Int
+
+from ..errors import GeometryError
+
+__all__ = ["Patches", "mesh_patches"]
+
+
+class Patches(eqx.Module):
+    """Constant-radiosity triangular patches (host arrays, float64, metres).
+
+    Attributes
+    ----------
+    centroid
+        ``(P, 3)`` centroids, m.
+    normal
+        ``(P, 3)`` unit front normals (right-hand rule on the vertex order).
+    area
+        ``(P,)`` areas, m².
+    vertices
+        ``(P, 3, 3)`` vertex positions, m.
+    material
+        ``(P,)`` material index of the source triangle.
+    group
+        ``(P,)`` user group id of the source triangle (−1: none).
+    source_triangle
+        ``(P,)`` index of the input triangle each patch was cut from.
+    """
+
+    centroid: Float[np.ndarray, "patches 3"]
+    normal: Float[np.ndarray, "patches 3"]
+    area: Float[np.ndarray, " patches"]
+    vertices: Float[np.ndarray, "patches 3 3"]
+    material: Int[np.ndarray, " patches"]
+    group: Int[np.ndarray, " patches"]
+    source_triangle: Int[np.ndarray, " patches"]
+
+    @property
+    def n(self) -> int:
+        """Number of patches."""
+        return int(self.area.shape[0])
+
+    @property
+    def diameter(self) -> Float[np.ndarray, " patches"]:
+        """Longest edge of each patch, m (the size used to decide near and far pairs)."""
+        v = self.vertices
+        e = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2]], axis=1)
+        return np.linalg.norm(e, axis=-1).max(axis=1)
+
+    def subset(self, index) -> Patches:
+        """The patches at ``index`` (an index array or boolean mask), in that order."""
+        return Patches(*(np.asarray(f)[index] for f in _fields(self)))
+
+
+def _fields(p: Patches):
+    return (p.centroid, p.normal, p.area, p.vertices, p.material, p.group, p.source_triangle)
+
+
+@functools.cache
+def _template(n: int) -> np.ndarray:
+    """Barycentric (w1, w2) coordinates of the n² sub-triangles of the unit triangle, (n², 3, 2).
+
+    Up triangles (a,b)→(a+1,b)→(a,b+1) and down triangles (a+1,b)→(a+1,b+1)→(a,b+1) both keep
+    the parent's orientation, so the front face is preserved.
+    """
+    tris = []
+    for a in range(n):
+        for b in range(n - a):
+            tris.append([(a, b), (a + 1, b), (a, b + 1)])
+            if a + b <= n - 2:
+                tris.append([(a + 1, b), (a + 1, b + 1), (a, b + 1)])
+    return np.asarray(tris, dtype=np.float64) / n
+
+
+def subdivide_triangles(
+    triangles: Float[np.ndarray, "tri 3 3"], n: int
+) -> Float[np.ndarray, "tri sub 3 3"]:
+    """Split each triangle into n² congruent sub-triangles of the same orientation."""
+    w = _template(n)  # (S, 3, 2)
+    v0 = triangles[:, None, None, 0]
+    e1 = (triangles[:, 1] - triangles[:, 0])[:, None, None]
+    e2 = (triangles[:, 2] - triangles[:, 0])[:, None, None]
+    return v0 + w[None, ..., 0:1] * e1 + w[None, ..., 1:2] * e2
+
+
+def mesh_patches(
+    triangles: Float[np.ndarray, "tri 3 3"],
+    material: Int[np.ndarray, " tri"] | None = None,
+    group: Int[np.ndarray, " tri"] | None = None,
+    patch_size: float = 0.25,
+) -> Patches:
+    """Subdivide the scene's triangles into patches of about ``patch_size`` metres.
+
+    Parameters
+    ----------
+    triangles
+        ``(T, 3, 3)`` vertex positions, m. The front face follows the right-hand rule.
+    material, group
+        ``(T,)`` per-triangle material index and user group id (−1 for none); default 0 and −1.
+    patch_size
+        Target longest edge of a patch, m. A triangle whose longest edge is L is cut into
+        ceil(L / patch_size)² congruent patches.
+
+    Raises
+    ------
+    GeometryError
+        A triangle has a NaN/infinite coordinate or (near) zero area; the message names it.
+    """
+    tri = np.asarray(triangles, dtype=np.float64)
+    if tri.ndim != 3 or tri.shape[1:] != (3, 3):
+        raise GeometryError(f"triangles must have shape (T, 3, 3), got {tri.shape}")
+    t = len(tri)
+    material = np.zeros(t, np.int64) if material is None else np.asarray(material, np.int64)
+    group = np.full(t, -1, np.int64) if group is None else np.asarray(group, np.int64)
+    if material.shape != (t,) or group.shape != (t,):
+        raise GeometryError(
+            f"material and group must have shape ({t},) like triangles, got "
+            f"{material.shape} and {group.shape}"
+        )
+    if not (np.isfinite(patch_size) and patch_size > 0):
+        raise GeometryError(f"patch_size must be a positive length in metres, got {patch_size}")
+    bad = ~np.isfinite(tri).all(axis=(1, 2))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise GeometryError(f"triangle {i} has a NaN or infinite coordinate: {tri[i].tolist()}",
+                            key=f"triangles[{i}]")
+    e = np.stack([tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 1], tri[:, 0] - tri[:, 2]], axis=1)
+    edge = np.linalg.norm(e, axis=-1)
+    longest = edge.max(axis=1)
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    # Zero area relative to the triangle's own size: a sliver whose height is below ~1e-9 of
+    # its length has no defined normal.
+    degenerate = area <= 1e-9 * np.maximum(longest, 1e-300) ** 2
+    if degenerate.any():
+        i = int(np.flatnonzero(degenerate)[0])
+        raise GeometryError(
+            f"triangle {i} is degenerate (area {area[i]:.3g} m², vertices {tri[i].tolist()}); "
+            f"{int(degenerate.sum())} degenerate triangle(s) in all",
+            key=f"triangles[{i}]",
+        )
+    nsub = np.maximum(1, np.ceil(longest / patch_size - 1e-9)).astype(np.int64)
+    out_v, out_src = [], []
+    for n in np.unique(nsub):
+        idx = np.flatnonzero(nsub == n)
+        sub = subdivide_triangles(tri[idx], int(n))  # (k, n², 3, 3)
+        out_v.append(sub.reshape(-1, 3, 3))
+        out_src.append(np.repeat(idx, n * n))
+    verts = np.concatenate(out_v) if out_v else np.zeros((0, 3, 3))
+    src = np.concatenate(out_src) if out_src else np.zeros(0, np.int64)
+    order = np.argsort(src, kind="stable")  # patches of one triangle stay together, in order
+    verts, src = verts[order], src[order]
+    c = np.cross(verts[:, 1] - verts[:, 0], verts[:, 2] - verts[:, 0])
+    pa = 0.5 * np.linalg.norm(c, axis=1)
+    normal = cross[src] / (2.0 * area[src])[:, None]  # the parent's normal: exact, no rounding
+    return Patches(
+        centroid=verts.mean(axis=1),
+        normal=normal,
+        area=pa,
+        vertices=verts,
+        material=material[src],
+        group=group[src],
+        source_triangle=src,
+    )

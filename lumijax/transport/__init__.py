@@ -1,0 +1,14 @@
+"""Form factors and the block-sparse transport operator (see ``docs/radiosity.md``)."""
+
+from ._build import FormFactorSettings as FormFactorSettings, build_operator as build_operator
+from ._kernels import (
+    form_factor_far as form_factor_far,
+    form_factor_point_triangle as form_factor_point_triangle,
+)
+from ._operator import (
+    Bucket as Bucket,
+    ReflectionOperator as ReflectionOperator,
+    TransportOperator as TransportOperator,
+    load_operator as load_operator,
+    operator_key as operator_key,
+)

@@ -1,0 +1,250 @@
+"""Building the transport operator: form factors for every visible block pair.
+
+Per patch pair, by the centre distance d relative to the larger patch diameter (r = d / diam):
+
+* **far** (r ≥ ``near_ratio``): the reciprocal point-to-point kernel with finite-area correction
+  (:func:`form_factor_far`) times one centroid-to-centroid shadow ray;
+* **near** (r < ``near_ratio``): Lambert's contour integral from receiver quadrature points to the
+  horizon-clipped source triangle (exact in the source), averaged over the receiver's
+  sub-triangle centroids (``mid_subdiv``², or ``close_subdiv``² when r < ``close_ratio``:
+  neighbours sharing an edge), computed both ways and symmetrised, times the fraction of
+  unblocked rays between the two patches' quadrature points.
+
+Why this choice, with numbers, is in ``docs/radiosity.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..mesh._partition import Partition
+from ..mesh._patches import Patches, _template
+from ._kernels import form_factor_point_triangle
+from ._operator import Bucket, TransportOperator
+
+__all__ = ["FormFactorSettings", "build_operator"]
+
+
+@dataclasses.dataclass(frozen=True)
+class FormFactorSettings:
+    """Accuracy knobs of :func:`build_operator` (hashable: part of the operator's cache key)."""
+
+    near_ratio: float = 4.0
+    """Pairs closer than this many (larger) patch diameters use the analytic contour integral."""
+    close_ratio: float = 1.5
+    """Pairs closer than this (neighbours) get the dense receiver quadrature."""
+    mid_subdiv: int = 2
+    """Receiver quadrature for near pairs: centroids of mid_subdiv² sub-triangles."""
+    close_subdiv: int = 4
+    """Receiver quadrature for neighbours: close_subdiv² points."""
+    mid_rays: int = 4
+    """Shadow rays per near pair (between quadrature points)."""
+    close_rays: int = 16
+    """Shadow rays per neighbour pair."""
+    symmetrise: bool = True
+    """Average A_i F_ij and A_j F_ji for near pairs (exact reciprocity; halves quadrature bias)."""
+    max_bytes_per_step: int = 1 << 26
+    """Block data per step of a product (chunking of the scan; memory, not accuracy)."""
+
+
+_LADDER = np.array([8 * round(32 * 2 ** (k / 2) / 8) for k in range(24)])
+
+
+def _pad(n: int) -> int:
+    """Padded block size: next rung of a √2 ladder (≤ 41 % padding per side)."""
+    return int(_LADDER[np.searchsorted(_LADDER, n)])
+
+
+_BATCH = 1 << 15  # receiver points per kernel call: one fixed shape, one compilation
+
+
+@jax.jit
+def _contour_flat(q, n, tri):
+    """Point→triangle factors for (M,) receiver points q, normals n and triangles tri."""
+    return form_factor_point_triangle(q, n, tri)
+
+
+def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
+    """Sub-triangle centroids (N, nsub², 3): an equal-weight rule on each triangle."""
+    w = _template(nsub).mean(axis=1)  # (Q, 2) barycentric (w1, w2) of the centroids
+    v0 = vertices[:, None, 0]
+    return v0 + w[None, :, 0:1] * (vertices[:, None, 1] - v0) + w[None, :, 1:2] * (
+        vertices[:, None, 2] - v0
+    )
+
+
+def _contour_batched(q, n, tri) -> np.ndarray:
+    """Mean over each pair's receiver points q (N, Q, 3) of the factor to tri (N, 3, 3)."""
+    npair, nq = q.shape[:2]
+    # Relative coordinates (float64 on the host) so that float32 in the kernel keeps precision.
+    origin = q.mean(axis=1, keepdims=True)
+    qf = (q - origin).reshape(-1, 3)
+    tf = np.repeat(tri - origin, nq, axis=0)
+    nf = np.repeat(n, nq, axis=0)
+    out = np.empty(len(qf))
+    for s in range(0, len(qf), _BATCH):
+        m = min(_BATCH, len(qf) - s)
+        qp, tp, npd = np.zeros((_BATCH, 3)), np.zeros((_BATCH, 3, 3)), np.zeros((_BATCH, 3))
+        qp[:m], tp[:m], npd[:m] = qf[s : s + m], tf[s : s + m], nf[s : s + m]
+        out[s : s + m] = np.asarray(_contour_flat(qp, npd, tp))[:m]
+    return out.reshape(npair, nq).mean(axis=1)
+
+
+def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
+    """Fraction of unblocked rays between quadrature points of pairs (N, Q, 3) × (N, Q, 3)."""
+    n, q = qi.shape[:2]
+    k = np.arange(rays)
+    a, b = k % q, (k * 7 + 3 * (k // q) + 1) % q  # a fixed scramble pairing points of i and j
+    o = qi[:, a].reshape(-1, 3)
+    t = qj[:, b].reshape(-1, 3)
+    blocked = caster.occluded(o, t).reshape(n, rays)
+    return 1.0 - blocked.mean(axis=1)
+
+
+def _near_pairs(p: Patches, i, j, s: FormFactorSettings, caster, counters) -> np.ndarray:
+    """``A_i F_ij`` (m²) for near pairs by the contour integral and receiver quadrature."""
+    g = np.zeros(len(i))
+    if not len(i):
+        return g
+    d = np.linalg.norm(p.centroid[j] - p.centroid[i], axis=1)
+    r = d / np.maximum(p.diameter[i], p.diameter[j])
+    close = r < s.close_ratio
+    for sel, nsub, rays in ((close, s.close_subdiv, s.close_rays), (~close, s.mid_subdiv, s.mid_rays)):
+        ii, jj = i[sel], j[sel]
+        if not len(ii):
+            continue
+        qi = _quad_points(p.vertices[ii], nsub)
+        qj = _quad_points(p.vertices[jj], nsub)
+        f_ij = _contour_batched(qi, p.normal[ii], p.vertices[jj])
+        gg = p.area[ii] * f_ij
+        if s.symmetrise:
+            f_ji = _contour_batched(qj, p.normal[jj], p.vertices[ii])
+            gg = 0.5 * (gg + p.area[jj] * f_ji)
+        if caster is not None:
+            t0 = time.perf_counter()
+            gg = gg * _visibility(caster, qi, qj, rays)
+            counters["ray_time"] += time.perf_counter() - t0
+            counters["rays"] += len(ii) * rays
+        g[sel] = gg
+    return g
+
+
+def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, counters, diam):
+    """Dense ``G = A F`` block (float64) for receivers ia and sources ib."""
+    ci, ni, ai = p.centroid[ia], p.normal[ia], p.area[ia]
+    cj, nj, aj = p.centroid[ib], p.normal[ib], p.area[ib]
+    d = cj[None] - ci[:, None]
+    d2 = np.einsum("ijk,ijk->ij", d, d)
+    cos_i = np.einsum("ijk,ik->ij", d, ni)  # × |d|
+    cos_j = -np.einsum("ijk,jk->ij", d, nj)
+    size = np.maximum(diam[ia][:, None], diam[ib][None])
+    near = d2 < (s.near_ratio * size) ** 2
+    upper = np.triu(np.ones(d2.shape, bool), 1) if diagonal else True
+    far = ~near & (cos_i > 0) & (cos_j > 0) & upper
+    g = np.zeros(d2.shape)
+    fi, fj = np.nonzero(far)
+    # form_factor_far, inlined in float64 numpy (host side, one pass)
+    dd = d2[fi, fj]
+    g[fi, fj] = ai[fi] * aj[fj] * cos_i[fi, fj] * cos_j[fi, fj] / (dd * (np.pi * dd + ai[fi] + aj[fj]))
+    if caster is not None and len(fi):
+        t0 = time.perf_counter()
+        hit = caster.occluded(ci[fi], cj[fj])
+        counters["ray_time"] += time.perf_counter() - t0
+        counters["rays"] += len(fi)
+        g[fi[hit], fj[hit]] = 0.0
+    # Near pairs: any vertex of each in front of the other's plane (partly-facing neighbours
+    # count; the contour integral clips exactly).
+    ni_i, nj_j = np.nonzero(near & upper)
+    if len(ni_i):
+        vi, vj = p.vertices[ia[ni_i]], p.vertices[ib[nj_j]]
+        tol = 1e-9 * size[ni_i, nj_j]
+        front_j = (np.einsum("nkc,nc->nk", vj - ci[ni_i, None], ni[ni_i]) > tol[:, None]).any(1)
+        front_i = (np.einsum("nkc,nc->nk", vi - cj[nj_j, None], nj[nj_j]) > tol[:, None]).any(1)
+        keep = front_i & front_j
+        ni_i, nj_j = ni_i[keep], nj_j[keep]
+        counters["near_pairs"] += len(ni_i)
+        g[ni_i, nj_j] = _near_pairs(p, ia[ni_i], ib[nj_j], s, caster, counters)
+    if diagonal:
+        g = g + g.T
+    return g
+
+
+def build_operator(
+    patches: Patches,
+    part: Partition,
+    occluders=None,
+    settings: FormFactorSettings | None = None,
+    *,
+    dtype=np.float32,
+) -> TransportOperator:
+    """Compute the form factors of every visible block pair into a :class:`TransportOperator`.
+
+    Parameters
+    ----------
+    patches, part
+        From :func:`~lumijax.mesh.mesh_patches` and :func:`~lumijax.mesh.partition`.
+    occluders
+        Scene triangles ``(T, 3, 3)`` (or a ``RayCaster``) for shadow rays; ``None``: no
+        occlusion (convex scenes, tests).
+    settings
+        Accuracy knobs, :class:`FormFactorSettings` (defaults meet the documented accuracy).
+    dtype
+        Storage of the blocks: float32 (default; BLAS speed, half the memory) or float64.
+    """
+    from ..scene._raycast import RayCaster
+
+    s = settings or FormFactorSettings()
+    caster = occluders
+    if occluders is not None and not isinstance(occluders, RayCaster):
+        caster = RayCaster(occluders)
+    t_start = time.perf_counter()
+    counters = dict(rays=0, ray_time=0.0, near_pairs=0)
+    diam = patches.diameter
+    sizes = part.sizes
+    npatch = patches.n
+    # Bucket every visible pair by its padded shape, and preallocate (no second copy).
+    keys = {}
+    for k, (a, b) in enumerate(part.pairs):
+        key = (_pad(sizes[a]), _pad(sizes[b]), bool(a == b))
+        keys.setdefault(key, []).append(k)
+    buckets = []
+    nnz = 0
+    for (sa, sb, diagonal), ks in sorted(keys.items()):
+        n = len(ks)
+        per_pair = sa * sb * np.dtype(dtype).itemsize
+        chunk = int(max(1, min(n, s.max_bytes_per_step // per_pair)))
+        steps = -(-n // chunk)
+        chunk = -(-n // steps)
+        total = steps * chunk
+        blocks = np.zeros((total, sa, sb), dtype)
+        recv = np.full((total, sa), npatch, np.int32)
+        src = np.full((total, sb), npatch, np.int32)
+        for slot, k in enumerate(ks):
+            a, b = part.pairs[k]
+            ia, ib = part.block(a), part.block(b)
+            g = _pair_block(patches, ia, ib, diagonal, s, caster, counters, diam)
+            nnz += int(np.count_nonzero(g)) * (1 if diagonal else 2)
+            blocks[slot, : len(ia), : len(ib)] = g
+            recv[slot, : len(ia)] = ia
+            src[slot, : len(ib)] = ib
+        buckets.append(
+            Bucket(jnp.asarray(blocks), jnp.asarray(recv), jnp.asarray(src), diagonal, chunk)
+        )
+    info = dict(
+        patches=npatch,
+        blocks=part.n_blocks,
+        visible_pairs=int(len(part.pairs)),
+        nonzeros=nnz,
+        rays=counters["rays"],
+        ray_time_s=counters["ray_time"],
+        near_pairs=counters["near_pairs"],
+        build_time_s=time.perf_counter() - t_start,
+        settings=dataclasses.asdict(s),
+    )
+    area = jnp.asarray(patches.area, dtype=jnp.float64 if jax.config.jax_enable_x64 else None)
+    return TransportOperator(tuple(buckets), area, npatch, info)
