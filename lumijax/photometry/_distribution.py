@@ -1,0 +1,321 @@
+"""The candela distribution: a gridded intensity table on the full sphere, evaluated by direction.
+
+Angles are stored in degrees (as in the files); kernels work in radians internally only where a
+trigonometric function needs them. Directions are in the luminaire frame of
+``docs/conventions.md``: the photometric axis (γ = 0) is ``−z_l``, C0 is ``+x_l``, C90 is ``+y_l``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+__all__ = ["CandelaDistribution"]
+
+_TYPES = ("C", "B", "A")
+
+
+def _is_concrete(*xs) -> bool:
+    return not any(isinstance(x, jax.core.Tracer) for x in xs)
+
+
+def _trapezoid_weights(x, xp=jnp):
+    """Node weights of the trapezoid rule on the ascending grid ``x`` (same unit as ``x``)."""
+    dx = xp.diff(x)
+    w = xp.zeros_like(x)
+    if xp is np:
+        w[:-1] += 0.5 * dx
+        w[1:] += 0.5 * dx
+        return w
+    return w.at[:-1].add(0.5 * dx).at[1:].add(0.5 * dx)
+
+
+def _linear_weights(x, kind: str, xp=jnp):
+    """Node weights ``w`` with ``Σ w_i f_i = ∫ f(x) k(x) dx`` exactly for the piecewise-linear ``f``.
+
+    ``x`` is in radians, ascending; ``k`` is ``sin`` (polar angle from the pole, Type C) or ``cos``
+    (latitude from the equator, Types A and B). Integrating ``(b − x) k(x)`` and ``(x − a) k(x)``
+    over each segment in closed form makes the flux exact for the interpolant that ``intensity``
+    evaluates, so a table's flux does not depend on how finely it happens to be sampled.
+    """
+    a, b = x[:-1], x[1:]
+    h = b - a
+    if kind == "sin":
+        s = (xp.sin(b) - xp.sin(a)) / h
+        wa = xp.cos(a) - s
+        wb = s - xp.cos(b)
+    else:
+        c = (xp.cos(a) - xp.cos(b)) / h
+        wa = c - xp.sin(a)
+        wb = xp.sin(b) - c
+    w = xp.zeros_like(x)
+    if xp is np:
+        w[:-1] += wa
+        w[1:] += wb
+        return w
+    return w.at[:-1].add(wa).at[1:].add(wb)
+
+
+def flux_weights(photometric_type: str, h_deg, v_deg, xp=jnp):
+    """Weights ``W[h, v]`` (sr) such that the flux of the bilinear interpolant is ``Σ W · I``."""
+    h = xp.asarray(h_deg) * (math.pi / 180.0)
+    v = xp.asarray(v_deg) * (math.pi / 180.0)
+    if photometric_type == "C":  # rows: azimuth C (trapezoid), columns: polar γ (sin weight)
+        return _trapezoid_weights(h, xp)[:, None] * _linear_weights(v, "sin", xp)[None, :]
+    if photometric_type == "B":  # rows: latitude H (cos weight), columns: azimuth V
+        return _linear_weights(h, "cos", xp)[:, None] * _trapezoid_weights(v, xp)[None, :]
+    # Type A: rows: azimuth H, columns: latitude V (cos weight)
+    return _trapezoid_weights(h, xp)[:, None] * _linear_weights(v, "cos", xp)[None, :]
+
+
+def _tie_poles_impl(photometric_type: str, h, v, cd, xp):
+    """Make the table single-valued where its angles are degenerate, keeping the flux unchanged.
+
+    At a pole of the angle system (Type C: γ = 0 and 180; Type B: H = ±90; Type A: V = ±90) every
+    azimuth names the same direction, so all samples there are replaced by their trapezoid-weighted
+    mean over the azimuth; for Type C the C = 0 and C = 360 planes are the same plane and are tied
+    too. Without this the interpolant jumps at the poles and its gradient is meaningless there.
+    The weighted mean preserves the trapezoid-in-azimuth integral, hence the flux.
+    """
+
+    def put(a, idx, val):
+        if xp is np:
+            a = a.copy()
+            a[idx] = val
+            return a
+        return a.at[idx].set(val)
+
+    if photometric_type == "C":
+        seam = 0.5 * (cd[0] + cd[-1])
+        cd = put(put(cd, 0, seam), -1, seam)
+    if photometric_type == "B":
+        w = _trapezoid_weights(v, xp)
+        w = w / xp.sum(w)
+        for i, pole in ((0, -90.0), (-1, 90.0)):
+            avg = xp.sum(w * cd[i, :])
+            cd = put(cd, (i, slice(None)), xp.where(h[i] == pole, avg, cd[i, :]))
+        return cd
+    w = _trapezoid_weights(h, xp)
+    w = w / xp.sum(w)
+    poles = ((0, 0.0), (-1, 180.0)) if photometric_type == "C" else ((0, -90.0), (-1, 90.0))
+    for j, pole in poles:
+        avg = xp.sum(w * cd[:, j])
+        cd = put(cd, (slice(None), j), xp.where(v[j] == pole, avg, cd[:, j]))
+    return cd
+
+
+def _validate(photometric_type: str, h: np.ndarray, v: np.ndarray, cd: np.ndarray) -> None:
+    if h.ndim != 1 or v.ndim != 1 or cd.shape != (h.shape[0], v.shape[0]):
+        raise ValueError(
+            f"candela must have shape (len(h_deg), len(v_deg)) = ({h.shape[0]}, {v.shape[0]}), "
+            f"got {cd.shape}"
+        )
+    if h.shape[0] < 2 or v.shape[0] < 2:
+        raise ValueError("a distribution needs at least two angles on each axis (expand first)")
+    if np.any(np.diff(h) <= 0) or np.any(np.diff(v) <= 0):
+        raise ValueError("h_deg and v_deg must be strictly ascending")
+    if photometric_type == "C" and (h[0] != 0.0 or h[-1] != 360.0):
+        raise ValueError("Type C h_deg must run from 0 to 360 inclusive")
+
+
+def _safe_hypot_atan2(p, q):
+    """``(sqrt(p² + q²), atan2(p, q))`` with finite gradients where ``p = q = 0``.
+
+    The double-where trick: the degenerate inputs are replaced *before* the singular operations,
+    so no NaN or inf is ever formed, not even in the branch that ``where`` discards (JAX would
+    otherwise multiply it by a zero cotangent and still produce NaN).
+    """
+    r2 = p * p + q * q
+    tiny = jnp.sqrt(jnp.finfo(r2.dtype).tiny)
+    degenerate = r2 <= tiny
+    r = jnp.where(degenerate, 0.0, jnp.sqrt(jnp.where(degenerate, 1.0, r2)))
+    az = jnp.arctan2(jnp.where(degenerate, 0.0, p), jnp.where(degenerate, 1.0, q))
+    return r, az
+
+
+def _grid_coords(photometric_type: str, d):
+    """Map local unit directions to the table's (row, column) angles in degrees."""
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    deg = 180.0 / math.pi
+    if photometric_type == "C":
+        r, c = _safe_hypot_atan2(y, x)
+        gamma = jnp.arctan2(r, -z)
+        return jnp.mod(c * deg, 360.0), gamma * deg
+    if photometric_type == "B":  # d = (cos H sin V, sin H, −cos H cos V)
+        r, vv = _safe_hypot_atan2(x, -z)
+        return jnp.arctan2(y, r) * deg, vv * deg
+    # Type A: d = (sin V, cos V sin H, −cos V cos H)
+    r, hh = _safe_hypot_atan2(y, -z)
+    return hh * deg, jnp.arctan2(x, r) * deg
+
+
+def _locate(grid, x):
+    """Cell index and fractional position of ``x`` on an ascending, possibly non-uniform grid."""
+    n = grid.shape[0]
+    i = jnp.clip(jnp.searchsorted(grid, x, side="right") - 1, 0, n - 2)
+    g0 = grid[i]
+    g1 = grid[i + 1]
+    return i, (x - g0) / (g1 - g0)
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def _intensity(photometric_type: str, h_deg, v_deg, candela, d):
+    # One compiled kernel per (type, shapes, dtype), so eager callers do not pay for op-by-op
+    # dispatch; inside a caller's jit this is simply inlined.
+    dtype = d.dtype
+    h = h_deg.astype(dtype)
+    v = v_deg.astype(dtype)
+    cd = candela.astype(dtype)
+    a, b = _grid_coords(photometric_type, d)
+    i, s = _locate(h, a)
+    j, t = _locate(v, b)
+    c00 = cd[i, j]
+    c01 = cd[i, j + 1]
+    c10 = cd[i + 1, j]
+    c11 = cd[i + 1, j + 1]
+    val = (1 - s) * ((1 - t) * c00 + t * c01) + s * ((1 - t) * c10 + t * c11)
+    inside = (b >= v[0]) & (b <= v[-1])
+    if photometric_type != "C":
+        inside = inside & (a >= h[0]) & (a <= h[-1])
+    return jnp.where(inside, val, jnp.zeros((), dtype))
+
+
+class CandelaDistribution(eqx.Module):
+    """Absolute luminous intensity (cd) of a luminaire on the full sphere of directions.
+
+    The table is expanded from whatever symmetry the file declared, so ``h_deg`` and ``v_deg``
+    cover everything the data say; outside their range the intensity is zero.
+
+    Attributes
+    ----------
+    photometric_type
+        ``"C"``, ``"B"`` or ``"A"`` (static): how (``h_deg``, ``v_deg``) map to directions, see
+        ``docs/conventions.md``. Type C: ``h_deg`` is the C angle, 0–360 inclusive (the 360 row
+        repeats the 0 row), ``v_deg`` is γ in [0, 180]. Types B and A: both in [−90, 90].
+    h_deg
+        Horizontal angles (deg), strictly ascending, shape ``(h,)``.
+    v_deg
+        Vertical angles (deg), strictly ascending, shape ``(v,)``.
+    candela
+        Intensity (cd), shape ``(h, v)``: ``candela[i, j]`` is the intensity at
+        ``(h_deg[i], v_deg[j])``.
+
+    Notes
+    -----
+    The constructor ties degenerate samples (the poles of the angle system and, for Type C, the
+    C0/C360 seam) to one value, the azimuthal mean, so that :meth:`intensity` is continuous on the
+    whole sphere. This does not change :meth:`flux`.
+    """
+
+    photometric_type: str = eqx.field(static=True)
+    h_deg: Float[Array, " h"]
+    v_deg: Float[Array, " v"]
+    candela: Float[Array, "h v"]
+
+    def __init__(
+        self,
+        photometric_type: str,
+        h_deg: ArrayLike,
+        v_deg: ArrayLike,
+        candela: ArrayLike,
+    ) -> None:
+        if photometric_type not in _TYPES:
+            raise ValueError(f"photometric_type must be one of {_TYPES}, got {photometric_type!r}")
+        if _is_concrete(h_deg, v_deg, candela):
+            # Loading a file stays in numpy; only the final arrays become JAX arrays.
+            hn = np.asarray(h_deg, dtype=np.float64)
+            vn = np.asarray(v_deg, dtype=np.float64)
+            cn = np.asarray(candela, dtype=np.float64)
+            _validate(photometric_type, hn, vn, cn)
+            cn = _tie_poles_impl(photometric_type, hn, vn, cn, np)
+            dtype = jax.dtypes.canonicalize_dtype(np.float64)  # float32 unless x64 is enabled
+            self.photometric_type = photometric_type
+            self.h_deg = jnp.asarray(hn, dtype=dtype)
+            self.v_deg = jnp.asarray(vn, dtype=dtype)
+            self.candela = jnp.asarray(cn, dtype=dtype)
+            return
+        h = jnp.asarray(h_deg)
+        v = jnp.asarray(v_deg)
+        cd = jnp.asarray(candela)
+        dtype = jnp.result_type(h, v, cd, jnp.zeros((), dtype=float).dtype)
+        self.photometric_type = photometric_type
+        self.h_deg = h.astype(dtype)
+        self.v_deg = v.astype(dtype)
+        self.candela = _tie_poles_impl(
+            photometric_type, self.h_deg, self.v_deg, cd.astype(dtype), jnp
+        )
+
+    def intensity(self, d: Float[Array, "... 3"]) -> Float[Array, "..."]:
+        """Intensity (cd) towards local directions ``d``.
+
+        Parameters
+        ----------
+        d
+            Direction vectors in the luminaire frame, shape ``(..., 3)``. Only the direction
+            matters (the map to angles uses ``atan2``), so unit length is expected but not
+            required; the zero vector gives the γ = 0 value.
+
+        Returns
+        -------
+        Intensity in cd, shape ``(...)``, of ``d``'s floating dtype. Bilinear in the table's
+        angles (wrap-around in C for Type C), zero outside the table's angle range, continuous
+        everywhere the data are, and differentiable with finite gradients also at the poles.
+        """
+        d = jnp.asarray(d)
+        if not jnp.issubdtype(d.dtype, jnp.floating):
+            d = d.astype(self.candela.dtype)
+        return _intensity(self.photometric_type, self.h_deg, self.v_deg, self.candela, d)
+
+    def flux(self) -> Float[Array, ""]:
+        """Luminous flux (lm): the exact integral of the interpolant over the sphere.
+
+        Type C: ``Φ = ∫∫ I sin γ dγ dC``, piecewise-linear in γ (closed form), trapezoid in C.
+        Types B and A: ``Φ = ∫∫ I cos(lat) d(lat) d(az)`` likewise. A 0-d array, usable under
+        ``jit`` and differentiable in ``candela``; ``float(dist.flux())`` gives a Python float.
+        """
+        if _is_concrete(self.h_deg, self.v_deg, self.candela):
+            # Float64 numpy for eager calls: exact weights and no per-shape compilation.
+            w = flux_weights(
+                self.photometric_type, np.asarray(self.h_deg), np.asarray(self.v_deg), np
+            )
+            total = np.sum(w * np.asarray(self.candela, np.float64))
+            return jnp.asarray(total, dtype=self.candela.dtype)
+        w = flux_weights(self.photometric_type, self.h_deg, self.v_deg)
+        return jnp.sum(w * self.candela)
+
+    @property
+    def peak_cd(self) -> float:
+        """Largest tabulated intensity (cd); the interpolant never exceeds it."""
+        return float(jnp.max(self.candela))
+
+    def max_intensity(self) -> tuple[float, float, float]:
+        """``(peak cd, h_deg, v_deg)`` of the largest tabulated intensity."""
+        cd = np.asarray(self.candela)
+        i, j = np.unravel_index(int(np.argmax(cd)), cd.shape)
+        return float(cd[i, j]), float(self.h_deg[i]), float(self.v_deg[j])
+
+    def direction(self, h_deg: ArrayLike, v_deg: ArrayLike) -> Float[Array, "... 3"]:
+        """Unit vectors in the luminaire frame for this type's angles (deg), broadcast together."""
+        h = jnp.deg2rad(jnp.asarray(h_deg, dtype=self.candela.dtype))
+        v = jnp.deg2rad(jnp.asarray(v_deg, dtype=self.candela.dtype))
+        h, v = jnp.broadcast_arrays(h, v)
+        return angles_to_direction(self.photometric_type, h, v)
+
+    def scaled(self, factor: float) -> CandelaDistribution:
+        """The same distribution with every intensity multiplied by ``factor``."""
+        return eqx.tree_at(lambda m: m.candela, self, self.candela * factor)
+
+
+def angles_to_direction(photometric_type: str, h, v, xp=jnp):
+    """Local unit direction for a type's (H, V) angles in radians (``docs/conventions.md``)."""
+    if photometric_type == "C":
+        return xp.stack([xp.sin(v) * xp.cos(h), xp.sin(v) * xp.sin(h), -xp.cos(v)], axis=-1)
+    if photometric_type == "B":
+        return xp.stack([xp.cos(h) * xp.sin(v), xp.sin(h), -xp.cos(h) * xp.cos(v)], axis=-1)
+    return xp.stack([xp.sin(v), xp.cos(v) * xp.sin(h), -xp.cos(v) * xp.cos(h)], axis=-1)
