@@ -4,8 +4,8 @@ The pipeline per batch of sources: a JAX kernel gives unshadowed illuminance for
 (source, point) pairs; only the pairs that receive light get a shadow ray (Embree); the result is
 summed into its network. Luminaires with a large luminous opening are split into sub-sources
 where a receiver is closer than five times the opening (the usual 5× rule), and area sources are
-integrated exactly (Lambert's contour integral per sub-rectangle) with one visibility ray per
-sub-rectangle.
+integrated exactly (Lambert's contour integral per sub-rectangle) with fractional visibility
+from four stratified rays per sub-rectangle.
 """
 
 from __future__ import annotations
@@ -200,7 +200,10 @@ def _area_illuminance(area, points, normals, caster, timing):
     du, dv = area.u / nu, area.v / nv
     base = area.origin + a[:, None] * area.u + b[:, None] * area.v
     quads = np.stack([base, base + du, base + du + dv, base + dv], axis=1)
-    centres = base + 0.5 * (du + dv)
+    # 2 x 2 stratified visibility samples per sub-rectangle: fractional visibility, so a shadow
+    # edge across a sub-rectangle is resolved rather than decided by its centre alone
+    offs = np.array([[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]])
+    samples = base[:, None, :] + offs[None, :, 0, None] * du + offs[None, :, 1, None] * dv
     qn = np.broadcast_to(area.normal, (len(quads), 3))
 
     out = np.zeros(len(points))
@@ -216,9 +219,12 @@ def _area_illuminance(area, points, normals, caster, timing):
         if caster is not None:
             i, j = np.nonzero(f > 0)
             if len(i):
-                blocked = caster.occluded(points[sl][i], centres[j])
-                f[i[blocked], j[blocked]] = 0.0
-                rays += len(i)
+                k = len(offs)
+                blocked = caster.occluded(
+                    np.repeat(points[sl][i], k, axis=0), samples[j].reshape(-1, 3)
+                ).reshape(-1, k)
+                f[i, j] *= 1.0 - blocked.mean(axis=1)
+                rays += len(i) * k
             timing["shadow_rays"] += time.perf_counter() - t1
         out[sl] = area.exitance * f.sum(axis=1)
     return out, rays
