@@ -25,7 +25,7 @@ import numpy as np
 from ..mesh._partition import Partition
 from ..mesh._patches import Patches, _template
 from ._kernels import form_factor_point_triangle
-from ._operator import Bucket, TransportOperator
+from ._operator import Bucket, Info, TransportOperator
 
 __all__ = ["FormFactorSettings", "build_operator"]
 
@@ -224,8 +224,11 @@ def build_operator(
         blocks = np.zeros((total, sa, sb), dtype)
         recv = np.full((total, sa), npatch, np.int32)
         src = np.full((total, sb), npatch, np.int32)
+        rblk = np.full(total, -1, np.int32)
+        sblk = np.full(total, -1, np.int32)
         for slot, k in enumerate(ks):
             a, b = part.pairs[k]
+            rblk[slot], sblk[slot] = a, b
             ia, ib = part.block(a), part.block(b)
             g = _pair_block(patches, ia, ib, diagonal, s, caster, counters, diam)
             nnz += int(np.count_nonzero(g)) * (1 if diagonal else 2)
@@ -233,9 +236,11 @@ def build_operator(
             recv[slot, : len(ia)] = ia
             src[slot, : len(ib)] = ib
         buckets.append(
-            Bucket(jnp.asarray(blocks), jnp.asarray(recv), jnp.asarray(src), diagonal, chunk)
+            Bucket(
+                *(jnp.asarray(x) for x in (blocks, recv, src, rblk, sblk)), diagonal, chunk
+            )
         )
-    info = dict(
+    info = Info(
         patches=npatch,
         blocks=part.n_blocks,
         visible_pairs=int(len(part.pairs)),
@@ -247,4 +252,5 @@ def build_operator(
         settings=dataclasses.asdict(s),
     )
     area = jnp.asarray(patches.area, dtype=jnp.float64 if jax.config.jax_enable_x64 else None)
-    return TransportOperator(tuple(buckets), area, npatch, info)
+    block_of = jnp.asarray(part.block_of, jnp.int32)
+    return TransportOperator(tuple(buckets), area, block_of, npatch, part.n_blocks, info)

@@ -26,7 +26,7 @@ from jaxtyping import Array, Float, Int
 
 from ..errors import OutputError
 
-__all__ = ["Bucket", "TransportOperator", "ReflectionOperator", "load_operator", "operator_key"]
+__all__ = ["Bucket", "Info", "TransportOperator", "ReflectionOperator", "load_operator", "operator_key"]
 
 
 class Bucket(eqx.Module):
@@ -39,27 +39,49 @@ class Bucket(eqx.Module):
     blocks: Float[Array, "n sa sb"]
     recv: Int[Array, "n sa"]
     src: Int[Array, "n sb"]
+    recv_block: Int[Array, " n"]
+    src_block: Int[Array, " n"]
     diagonal: bool = eqx.field(static=True)
     chunk: int = eqx.field(static=True)
 
 
-def _bucket_apply(bk: Bucket, xext: Array, out: Array) -> Array:
-    """out += G_bucket @ xext (both directions for off-diagonal pairs)."""
+class Info(dict):
+    """Build statistics and settings: a dict that hashes by content (a static pytree field)."""
+
+    def __hash__(self):  # type: ignore[override]
+        return hash(json.dumps(self, sort_keys=True, default=str))
+
+
+def _bucket_apply(bk: Bucket, xext: Array, out: Array, only_block=None) -> Array:
+    """out += G_bucket @ xext (both directions for off-diagonal pairs).
+
+    With ``only_block``, chunks with no pair touching that block are skipped (``lax.cond``):
+    the product with a vector that is zero outside the block, at the cost of its pairs only.
+    """
     n, sa, sb = bk.blocks.shape
     steps = n // bk.chunk
     d = bk.blocks.reshape(steps, bk.chunk, sa, sb)
     r = bk.recv.reshape(steps, bk.chunk, sa)
     s = bk.src.reshape(steps, bk.chunk, sb)
+    rb = bk.recv_block.reshape(steps, bk.chunk)
+    sbk = bk.src_block.reshape(steps, bk.chunk)
 
-    def body(acc, xs):
-        dk, rk, sk = xs
+    def compute(acc, dk, rk, sk):
         dk = dk.astype(xext.dtype)  # float32 storage, computed in the solve's precision
         acc = acc.at[rk].add(jnp.einsum("nij,njc->nic", dk, xext[sk]))
         if not bk.diagonal:
             acc = acc.at[sk].add(jnp.einsum("nij,nic->njc", dk, xext[rk]))
+        return acc
+
+    def body(acc, xs):
+        dk, rk, sk, rbk, sbkk = xs
+        if only_block is None:
+            return compute(acc, dk, rk, sk), None
+        touches = jnp.any((rbk == only_block) | (sbkk == only_block))
+        acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, dk, rk, sk)
         return acc, None
 
-    out, _ = jax.lax.scan(body, out, (d, r, s))
+    out, _ = jax.lax.scan(body, out, (d, r, s, rb, sbk))
     return out
 
 
@@ -72,18 +94,24 @@ class TransportOperator(eqx.Module):
 
     buckets: tuple[Bucket, ...]
     area: Float[Array, " patches"]
+    block_of: Int[Array, " patches"]
     n_patches: int = eqx.field(static=True)
-    info: dict = eqx.field(static=True)
+    n_blocks: int = eqx.field(static=True)
+    info: Info = eqx.field(static=True)
 
-    def gmul(self, x: Float[Array, "patches ..."]) -> Float[Array, "patches ..."]:
+    def gmul(self, x: Float[Array, "patches ..."], only_block=None) -> Float[Array, "patches ..."]:
         """``G x`` with ``G = diag(A) F`` symmetric (m² × unit of x)."""
         shape = x.shape
         x2 = x.reshape(shape[0], -1)
         xext = jnp.concatenate([x2, jnp.zeros((1, x2.shape[1]), x2.dtype)])
         out = jnp.zeros_like(xext)
         for bk in self.buckets:
-            out = _bucket_apply(bk, xext, out)
+            out = _bucket_apply(bk, xext, out, only_block)
         return out[:-1].reshape(shape)
+
+    def matmul_from_block(self, x, block) -> Array:
+        """``F x`` for x zero outside ``block`` (a traced int is fine): Southwell's shot."""
+        return self.gmul(x, only_block=block) / self._area(x)
 
     def _area(self, x):
         return self.area.astype(x.dtype).reshape((-1,) + (1,) * (x.ndim - 1))
@@ -120,14 +148,14 @@ class TransportOperator(eqx.Module):
     # -- persistence: plain arrays, so the lead's cache can key and store them --------------------
     def save(self, path: str | Path) -> None:
         """Write the operator to ``path`` (``.npz``: plain arrays plus a JSON header)."""
-        arrays = {"area": np.asarray(self.area)}
+        arrays = {"area": np.asarray(self.area), "block_of": np.asarray(self.block_of)}
         for k, bk in enumerate(self.buckets):
-            arrays[f"b{k}_blocks"] = np.asarray(bk.blocks)
-            arrays[f"b{k}_recv"] = np.asarray(bk.recv)
-            arrays[f"b{k}_src"] = np.asarray(bk.src)
+            for name in ("blocks", "recv", "src", "recv_block", "src_block"):
+                arrays[f"b{k}_{name}"] = np.asarray(getattr(bk, name))
         head = {
             "format": "lumijax.transport/1",
             "n_patches": self.n_patches,
+            "n_blocks": self.n_blocks,
             "buckets": [{"diagonal": bk.diagonal, "chunk": bk.chunk} for bk in self.buckets],
             "info": self.info,
         }
@@ -147,15 +175,23 @@ def load_operator(path: str | Path) -> TransportOperator:
             raise OutputError(f"not a lumijax transport operator: {head.get('format')!r}", file=path)
         buckets = tuple(
             Bucket(
-                jnp.asarray(z[f"b{k}_blocks"]),
-                jnp.asarray(z[f"b{k}_recv"]),
-                jnp.asarray(z[f"b{k}_src"]),
+                *(
+                    jnp.asarray(z[f"b{k}_{name}"])
+                    for name in ("blocks", "recv", "src", "recv_block", "src_block")
+                ),
                 diagonal=b["diagonal"],
                 chunk=b["chunk"],
             )
             for k, b in enumerate(head["buckets"])
         )
-        return TransportOperator(buckets, jnp.asarray(z["area"]), head["n_patches"], head["info"])
+        return TransportOperator(
+            buckets,
+            jnp.asarray(z["area"]),
+            jnp.asarray(z["block_of"]),
+            head["n_patches"],
+            head["n_blocks"],
+            Info(head["info"]),
+        )
 
 
 def operator_key(triangles, material, group, **settings) -> str:
