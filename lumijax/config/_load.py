@@ -144,6 +144,8 @@ def _find_line(text: str, key: str) -> int | None:
                    if re.match(rf"^\s*\[+[^\]]*\b{re.escape(p)}\b[^\]]*\]+\s*$", ln)]
             if hdr and j < len(parts) - 1:
                 start = hdr[0]
+    while parts and parts[-1].startswith("[") and len(parts) > 1 and not parts[-2].startswith("["):
+        parts = parts[:-1]  # 'min[2]': the element of an inline array is on the 'min' line
     last = parts[-1]
     if last.startswith("["):
         return start + 1 if start else None

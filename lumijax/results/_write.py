@@ -29,11 +29,19 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
+        os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def _file_mode() -> int:
+    """The mode a plain ``open`` would give under the current umask."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
 
 
 def _grid_csv(points: np.ndarray, lux: np.ndarray) -> str:
@@ -81,9 +89,11 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
                 )
                 written[f"images/{name}.png"] = Path("images") / f"{name}.png"
         final: dict[str, Path] = {}
+        mode = _file_mode()
         for key, rel in written.items():
             dest = out_dir / rel
             dest.parent.mkdir(parents=True, exist_ok=True)
+            os.chmod(staging / rel, mode)  # temp files are private; results are not
             os.replace(staging / rel, dest)
             final[key] = dest
         return final

@@ -1,0 +1,129 @@
+"""The command line: outputs, the results.json contract, clean errors, nothing half-written."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lumijax.cli import main
+
+STUDY = """
+[study]
+name = "cli room"
+[materials.wall]
+reflectance = 0.5
+[photometry.iso]
+kind = "isotropic"
+flux_lm = 2000
+[networks.a]
+dimmer = 0.5
+[networks.b]
+[[geometry]]
+kind = "box"
+min = [0, 0, 0]
+max = [4, 3, 3]
+normals = "inward"
+material = "wall"
+[[luminaires]]
+name = "A1"
+photometry = "iso"
+position = [1, 1.5, 2.5]
+network = "a"
+[[luminaires]]
+name = "B1"
+photometry = "iso"
+position = [3, 1.5, 2.5]
+network = "b"
+[[grids]]
+name = "floor"
+kind = "plane"
+origin = [0, 0, 0.01]
+u = [4, 0, 0]
+v = [0, 3, 0]
+nu = 8
+nv = 6
+target_lux = 100
+"""
+
+
+def test_run_writes_the_documented_contract(write_study, tmp_path, capsys):
+    cfg = write_study(STUDY)
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "floor" in printed and "U0" in printed
+    res = json.loads((out / "results.json").read_text())
+    assert res["study"] == "cli room"
+    assert isinstance(res["lumijax_version"], str)
+    g = res["grids"]["floor"]
+    assert set(g) >= {"points", "normals", "illuminance_lux", "by_network_lux", "stats"}
+    assert set(g["stats"]) == {"avg", "min", "max", "u0", "ud"}
+    lux = np.array(g["illuminance_lux"])
+    a, b = np.array(g["by_network_lux"]["a"]), np.array(g["by_network_lux"]["b"])
+    np.testing.assert_allclose(lux, 0.5 * a + 1.0 * b, rtol=1e-12)
+    # independent closed form for network b's single isotropic source
+    p = np.array(g["points"]) - [3, 1.5, 2.5]
+    np.testing.assert_allclose(b, 2000 / (4 * np.pi) * -p[:, 2] / np.linalg.norm(p, axis=1) ** 3,
+                               rtol=1e-6)
+    assert res["networks"]["a"] == {"dimmer": 0.5, "luminaires": ["A1"],
+                                    "flux_lm": pytest.approx(2000, rel=1e-4)}
+    assert {"load", "direct"} <= set(res["timing_s"])
+    with open(out / "grids" / "floor.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0]) == ["x", "y", "z", "lux"] and len(rows) == 48
+    np.testing.assert_allclose([float(r["lux"]) for r in rows], lux, rtol=1e-5)
+    png = out / "images" / "floor.png"
+    assert png.stat().st_size > 10_000
+    assert not [p for p in out.rglob("*") if p.name.startswith(".")]  # no staging leftovers
+
+
+def test_check_json_summary(write_study, capsys):
+    assert main(["check", str(write_study(STUDY)), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary == {
+        "triangles": 12, "luminaires": 2, "networks": 2, "grid_points": 48,
+        "photometry": {"iso": {"rated_lm": pytest.approx(2000),
+                               "integrated_lm": pytest.approx(2000, rel=1e-4)}},
+    }
+
+
+def test_bad_config_is_one_line_without_traceback(write_study, tmp_path, capsys):
+    cfg = write_study(STUDY.replace("dimmer = 0.5", "dimmer = 2"))
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"lumijax: error: {cfg}:10: networks.a.dimmer:")
+    assert "Traceback" not in err and err.count("\n") == 1
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_failure_while_writing_leaves_previous_results_untouched(write_study, tmp_path,
+                                                                  monkeypatch):
+    cfg = write_study(STUDY)
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "--out", str(out), "--no-images"]) == 0
+    before = (out / "results.json").read_bytes()
+
+    import lumijax.report
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(lumijax.report, "falsecolour_map", broken)
+    cfg2 = write_study(STUDY.replace("dimmer = 0.5", "dimmer = 0.1"), "other.toml")
+    assert main(["run", str(cfg2), "--out", str(out)]) == 1
+    assert (out / "results.json").read_bytes() == before
+    assert not [p for p in out.rglob("*") if p.name.startswith(".")]
+
+
+def test_installed_entry_point_runs_as_a_process(write_study, tmp_path):
+    cfg = write_study(STUDY.replace("flux_lm = 2000", "flux_lm = -5"))
+    proc = subprocess.run([sys.executable, "-m", "lumijax.cli", "check", str(cfg)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1
+    assert "photometry.iso.flux_lm" in proc.stderr and "Traceback" not in proc.stderr
