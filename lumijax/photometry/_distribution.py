@@ -186,6 +186,11 @@ def _intensity(photometric_type: str, h_deg, v_deg, candela, d):
     return jnp.where(inside, val, jnp.zeros((), dtype))
 
 
+@functools.partial(jax.jit, static_argnums=0)
+def _flux(photometric_type: str, h_deg, v_deg, candela):
+    return jnp.sum(flux_weights(photometric_type, h_deg, v_deg) * candela)
+
+
 class CandelaDistribution(eqx.Module):
     """Absolute luminous intensity (cd) of a luminaire on the full sphere of directions.
 
@@ -286,8 +291,7 @@ class CandelaDistribution(eqx.Module):
             )
             total = np.sum(w * np.asarray(self.candela, np.float64))
             return jnp.asarray(total, dtype=self.candela.dtype)
-        w = flux_weights(self.photometric_type, self.h_deg, self.v_deg)
-        return jnp.sum(w * self.candela)
+        return _flux(self.photometric_type, self.h_deg, self.v_deg, self.candela)
 
     @property
     def peak_cd(self) -> float:

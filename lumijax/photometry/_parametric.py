@@ -46,7 +46,10 @@ def _check_beam(name: str, deg: float, hi: float = 179.0) -> float:
 
 
 def _build(flux_lm, h, v, cd, opening, name, description) -> Photometry:
-    cd = np.asarray(cd, dtype=np.float64)
+    cd = np.array(cd, dtype=np.float64)
+    # Far tails of the profiles (below 1e-9 of the peak) are set to zero: invisible, and they
+    # would only clutter written files with values like 1e-64.
+    cd[cd < 1e-9 * cd.max()] = 0.0
     cd *= flux_lm / integrate_np("C", h, v, cd)
     dist = CandelaDistribution("C", h, v, cd)
     return Photometry(
