@@ -3,5 +3,6 @@
 from ._radiosity import (
     RadiositySolution as RadiositySolution,
     check_reflectance as check_reflectance,
+    escaped_fraction as escaped_fraction,
     solve_radiosity as solve_radiosity,
 )

@@ -30,7 +30,7 @@ from jaxtyping import Array, Float, Int
 from ..errors import SolveError
 from ..transport._operator import ReflectionOperator, TransportOperator
 
-__all__ = ["RadiositySolution", "solve_radiosity", "check_reflectance"]
+__all__ = ["RadiositySolution", "solve_radiosity", "check_reflectance", "escaped_fraction"]
 
 METHODS = ("gmres", "bicgstab", "southwell", "jacobi")
 
@@ -49,6 +49,9 @@ class RadiositySolution(eqx.Module):
         Achieved ``max_col ‖B₀ − (I − ρF)B‖_∞ / ‖B₀‖_∞`` (relative, per column, worst column).
     result
         A ``lineax.RESULTS`` code; ``RESULTS.successful`` when the tolerance was met.
+    escaped
+        Per column, the fraction of the flux leaving the surfaces that leaves the scene
+        (``Σ A B (1 − Σ_j F_ij) / Σ A B``): 0 in a closed room, information for open scenes.
     stats
         Method-specific counts (lineax steps, shots, ...).
     """
@@ -57,6 +60,7 @@ class RadiositySolution(eqx.Module):
     iterations: Int[Array, ""]
     residual: Float[Array, ""]
     result: lx.RESULTS
+    escaped: Float[Array, "..."]
     stats: dict
 
 
@@ -87,6 +91,15 @@ def check_reflectance(transport: TransportOperator, rho) -> None:
             f"{float(np.mean(rows)):.3f})",
             key="rho",
         )
+
+
+def escaped_fraction(transport: TransportOperator, b: Float[Array, "patches ..."]) -> Array:
+    """Fraction of the exitance flux Σ A B that leaves the scene, per column (dimensionless)."""
+    b = jax.lax.stop_gradient(b)
+    area = transport.area.astype(b.dtype).reshape((-1,) + (1,) * (b.ndim - 1))
+    escape = 1.0 - transport.row_sums().astype(b.dtype).reshape(area.shape)
+    total = jnp.sum(area * b, axis=0)
+    return jnp.sum(area * b * escape, axis=0) / jnp.where(total != 0, total, 1.0)
 
 
 def _residual(op: ReflectionOperator, b0, b):
@@ -142,6 +155,18 @@ def solve_radiosity(
         )
     if rtol is None:
         rtol = 1e-9 if b0.dtype == jnp.float64 else 1e-4
+    b, iterations, residual, result, escaped, stats = _solve(
+        transport, jnp.asarray(rho), b0, method, float(rtol), int(max_steps), int(restart)
+    )
+    sol = RadiositySolution(b, iterations, residual, result, escaped, stats)
+    if throw:
+        sol = _raise_if_failed(sol, method, rtol)
+    return sol
+
+
+@eqx.filter_jit
+def _solve(transport, rho, b0, method, rtol, max_steps, restart):
+    """The traced part of :func:`solve_radiosity` (compiled once per shape and method)."""
     # Per-column scale, constant for autodiff: B = s · solve(B₀ / s) for any s.
     scale = jax.lax.stop_gradient(jnp.max(jnp.abs(b0), axis=0, keepdims=True))
     scale = jnp.where(scale > 0, scale, 1.0)
@@ -175,12 +200,7 @@ def solve_radiosity(
     result = lx.RESULTS.where(
         (result == lx.RESULTS.breakdown) & (residual <= rtol), lx.RESULTS.successful, result
     )
-    sol = RadiositySolution(b, jnp.asarray(iterations), residual, result, stats)
-    if throw:
-        sol = _raise_if_failed(sol, method, rtol)
-    return sol
-
-
+    return b, jnp.asarray(iterations), residual, result, escaped_fraction(transport, b), stats
 def _raise_if_failed(sol: RadiositySolution, method: str, rtol: float) -> RadiositySolution:
     failed = (sol.result != lx.RESULTS.successful) | (sol.residual > 10 * rtol)
     ok, res = _concrete(~failed), _concrete(sol.residual)

@@ -85,6 +85,17 @@ def _bucket_apply(bk: Bucket, xext: Array, out: Array, only_block=None) -> Array
     return out
 
 
+@eqx.filter_jit
+def _gmul(op: TransportOperator, x, only_block):
+    shape = x.shape
+    x2 = x.reshape(shape[0], -1)
+    xext = jnp.concatenate([x2, jnp.zeros((1, x2.shape[1]), x2.dtype)])
+    out = jnp.zeros_like(xext)
+    for bk in op.buckets:
+        out = _bucket_apply(bk, xext, out, only_block)
+    return out[:-1].reshape(shape)
+
+
 class TransportOperator(eqx.Module):
     """Form factors ``F`` (dimensionless, rows: receivers) of a patch mesh, block-sparse.
 
@@ -101,13 +112,7 @@ class TransportOperator(eqx.Module):
 
     def gmul(self, x: Float[Array, "patches ..."], only_block=None) -> Float[Array, "patches ..."]:
         """``G x`` with ``G = diag(A) F`` symmetric (m² × unit of x)."""
-        shape = x.shape
-        x2 = x.reshape(shape[0], -1)
-        xext = jnp.concatenate([x2, jnp.zeros((1, x2.shape[1]), x2.dtype)])
-        out = jnp.zeros_like(xext)
-        for bk in self.buckets:
-            out = _bucket_apply(bk, xext, out, only_block)
-        return out[:-1].reshape(shape)
+        return _gmul(self, jnp.asarray(x), only_block)
 
     def matmul_from_block(self, x, block) -> Array:
         """``F x`` for x zero outside ``block`` (a traced int is fine): Southwell's shot."""
