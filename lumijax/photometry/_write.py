@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import datetime
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
+from .._atomic import atomic_write_bytes
 from ._opening import encode_ies_opening
 from ._photometry import Photometry
 
@@ -95,19 +94,5 @@ def write_ies(photometry: Photometry, path: str | os.PathLike) -> Path:
         lines += _rows(row)
     data = ("\r\n".join(lines) + "\r\n").encode("latin-1", errors="replace")
 
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(data)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
-    except OSError as exc:
-        raise OutputError(f"cannot write the IES file: {exc.strerror or exc}", file=path) from None
+    atomic_write_bytes(path, data, what="IES file")
     return path

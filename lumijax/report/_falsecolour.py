@@ -11,7 +11,6 @@ pyvista (VTK) is imported inside the functions that render, so ``import lumijax`
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ from typing import Literal
 
 import numpy as np
 
+from .._atomic import atomic_path
 from ..errors import GeometryError, OutputError
 
 __all__ = ["falsecolour_map", "lux_to_rgb", "nice_levels", "DEFAULT_CMAP"]
@@ -325,21 +325,13 @@ def falsecolour_map(
     was_off_screen = pv.OFF_SCREEN
     pv.OFF_SCREEN = True
     plotter = pv.Plotter(off_screen=True, window_size=list(view.window_size))
-    tmp = None
     try:
         _draw(pv, plotter, mesh, view, p, e, title, levels, scale, cmap, (vmin, vmax), labels)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png", dir=path.parent)
-        os.close(fd)
-        plotter.screenshot(tmp, transparent_background=False)
-        os.replace(tmp, path)
-        tmp = None
-    except OSError as exc:
-        raise OutputError(f"cannot write the map ({exc})", file=path) from None
+        with atomic_path(path, what="map", suffix=".png") as tmp:  # VTK reads the suffix
+            plotter.screenshot(str(tmp), transparent_background=False)
     finally:
         plotter.close()
         pv.OFF_SCREEN = was_off_screen
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
     return path
 
 

@@ -15,33 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import file_mode
 from ..errors import OutputError
 from ._results import Results
 
-__all__ = ["write_results", "atomic_write_text"]
-
-
-def atomic_write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file and an atomic rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.chmod(tmp, _file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def _file_mode() -> int:
-    """The mode a plain ``open`` would give under the current umask."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
+__all__ = ["write_results"]
 
 
 def _grid_csv(points: np.ndarray, lux: np.ndarray) -> str:
@@ -89,7 +67,7 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
                 )
                 written[f"images/{name}.png"] = Path("images") / f"{name}.png"
         final: dict[str, Path] = {}
-        mode = _file_mode()
+        mode = file_mode()
         for key, rel in written.items():
             dest = out_dir / rel
             dest.parent.mkdir(parents=True, exist_ok=True)

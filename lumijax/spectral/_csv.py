@@ -14,13 +14,12 @@ Column names are case-insensitive; other columns are ignored; blank lines are sk
 from __future__ import annotations
 
 import csv
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError, SpectrumError
+from .._atomic import atomic_write_text
+from ..errors import SpectrumError
 
 __all__ = ["read_csv", "write_csv", "WAVELENGTH_COLUMN", "VALUE_COLUMN"]
 
@@ -116,16 +115,4 @@ def write_csv(path: Path, wavelengths_nm, values, kind: str, name: str = "") -> 
     rows = [f"# lumijax spectrum {name!r} ({kind}); wavelengths in nm\n"]
     rows.append(f"{WAVELENGTH_COLUMN},{VALUE_COLUMN[kind]}\n")
     rows += [f"{float(w)!r},{float(v)!r}\n" for w, v in zip(wavelengths_nm, values)]
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise OutputError(f"cannot write spectrum file ({exc.strerror})", file=path) from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.writelines(rows)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    return atomic_write_text(path, "".join(rows), what="spectrum file")

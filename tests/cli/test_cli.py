@@ -127,3 +127,15 @@ def test_installed_entry_point_runs_as_a_process(write_study, tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1
     assert "photometry.iso.flux_lm" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_demo_runs_the_bundled_study(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out)]) == 0
+    res = json.loads((out / "results.json").read_text())
+    assert set(res["grids"]) == {"facade", "courtyard"}
+    assert set(res["networks"]) == {"wash", "pilasters", "accent"}
+    for name in res["grids"]:
+        assert (out / "images" / f"{name}.png").stat().st_size > 10_000
+        assert res["grids"][name]["stats"]["avg"] > 0
+    assert "facade" in capsys.readouterr().out
