@@ -20,12 +20,13 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-from ._kernels import point_illuminance, quad_form_factors
+from ._kernels import pair_illuminance, quad_form_factors
 
-__all__ = ["DirectLighting", "direct_illuminance", "sub_source_offsets"]
+__all__ = ["DirectLighting", "direct_illuminance", "sub_source_offsets", "support_cosine"]
 
 _MAX_SUB = 32  # sub-sources per opening axis: beyond this a bar is closer than 1/6 of its length
-_PAIRS_PER_CALL = 1 << 22  # (source, point) pairs per kernel call: ~16 MB of float32
+_PAIRS_PER_CALL = 1 << 20  # pairs per kernel call: one compiled shape per photometry
+_CULL_PAIRS = 1 << 22  # pairs examined per numpy culling step (~50 MB of float32 vectors)
 
 Progress = Callable[[int, int], None]
 
@@ -40,12 +41,15 @@ class DirectLighting:
         ``(networks, points)`` lux, network order as in ``scene.networks``.
     shadow_rays
         Number of shadow rays cast.
+    candidate_pairs
+        (source, point) pairs inside a beam and facing it: the pairs evaluated.
     timing_s
         Seconds spent in the kernels and in ray casting.
     """
 
     by_network: Float[np.ndarray, "net points"]
     shadow_rays: int = 0
+    candidate_pairs: int = 0
     timing_s: dict[str, float] = field(default_factory=dict)
 
 
@@ -65,13 +69,34 @@ def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np
 
 
 @jax.jit
-def _point_block(distribution, positions, rotations, scales, points, normals):
-    return point_illuminance(distribution, positions, rotations, scales, points, normals)
+def _pair_block(distribution, positions, rotations, scales, points, normals, source, receiver):
+    return pair_illuminance(distribution, positions, rotations, scales, points, normals,
+                            source, receiver)
 
 
 @jax.jit
 def _quad_block(points, normals, quads, quad_normals):
     return quad_form_factors(points, normals, quads, quad_normals)
+
+
+def support_cosine(distribution) -> float:
+    """Cosine of the widest angle from the photometric axis at which ``distribution`` can be
+    non-zero: the bilinear interpolant is non-zero up to the neighbours of non-zero samples, and
+    a 2° margin covers Type A/B cells whose interior leans further out than their corners."""
+    cd = np.asarray(distribution.candela)
+    nz = cd > 0
+    if not nz.any():
+        return 1.0
+    grown = nz.copy()
+    grown[1:] |= nz[:-1]
+    grown[:-1] |= nz[1:]
+    grown[:, 1:] |= nz[:, :-1]
+    grown[:, :-1] |= nz[:, 1:]
+    hh, vv = np.meshgrid(np.asarray(distribution.h_deg), np.asarray(distribution.v_deg),
+                         indexing="ij")
+    dirs = np.asarray(distribution.direction(hh[grown], vv[grown]))
+    widest = np.arccos(np.clip(np.min(-dirs[:, 2]), -1.0, 1.0)) + np.radians(2.0)
+    return float(np.cos(widest)) if widest < np.pi else -1.0
 
 
 def direct_illuminance(
@@ -95,51 +120,58 @@ def direct_illuminance(
         unobstructed illuminance, useful to check a design's photometry alone.
     progress
         Called as ``progress(done, total)`` in units of sources processed.
+
+    Notes
+    -----
+    Only pairs that can receive light are evaluated: a receiver must face the source and lie
+    inside the cone where the source's distribution is non-zero (:func:`support_cosine`). The
+    culling is exact: a skipped pair's illuminance is zero.
     """
     points = np.ascontiguousarray(points, np.float64)
     normals = np.asarray(normals, np.float64)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    n_pts = len(points)
     net_index = {n.name: k for k, n in enumerate(scene.networks)}
-    out = np.zeros((len(scene.networks), len(points)))
-    result = DirectLighting(out, timing_s={"kernel": 0.0, "shadow_rays": 0.0})
-    if len(points) == 0:
+    out = np.zeros((len(scene.networks), n_pts))
+    result = DirectLighting(out, timing_s={"cull": 0.0, "kernel": 0.0, "shadow_rays": 0.0})
+    if n_pts == 0:
         return result
     caster = scene.raycaster if shadows and len(scene.triangles) else None
-
     batches = _point_source_batches(scene, points)
     total = sum(len(b[1]) for b in batches) + len(scene.area_sources)
     done = 0
-    pts_j = jnp.asarray(points)
-    nrm_j = jnp.asarray(normals)
+    pts_j, nrm_j = jnp.asarray(points), jnp.asarray(normals)
+    pts32, nrm32 = points.astype(np.float32), normals.astype(np.float32)
     for phot_name, pos, rot, scale, owner in batches:
         dist = scene.photometries[phot_name].distribution
-        per_call = max(1, min(len(pos), _PAIRS_PER_CALL // len(points)))
-        per_call = 1 << (per_call.bit_length() - 1)  # powers of two: few distinct compiled shapes
-        for s in range(0, len(pos), per_call):
-            sl = slice(s, s + per_call)
-            n = len(pos[sl])
-            pad = per_call - n
+        cos_support = support_cosine(dist)
+        axis = -rot[:, :, 2]  # world direction of each source's photometric axis (local −z)
+        # one padding source of scale 0 at the end, so padded pairs add nothing
+        tables = (jnp.asarray(np.vstack([pos, pos[:1]])),
+                  jnp.asarray(np.concatenate([rot, rot[:1]])),
+                  jnp.asarray(np.append(scale, 0.0)))
+        per_cull = max(1, _CULL_PAIRS // n_pts)
+        batch = _SourceBatch(dist, tables, pos, owner)
+        pending: list[tuple[np.ndarray, np.ndarray]] = []
+        pending_n = 0
+        for c0 in range(0, len(pos), per_cull):
             t0 = time.perf_counter()
-            e = np.array(_point_block(
-                dist,
-                jnp.asarray(np.pad(pos[sl], ((0, pad), (0, 0)))),
-                jnp.asarray(np.pad(rot[sl], ((0, pad), (0, 0), (0, 0)))),
-                jnp.asarray(np.pad(scale[sl], (0, pad))),
-                pts_j, nrm_j,
-            ), dtype=np.float64)[:n]
-            t1 = time.perf_counter()
-            result.timing_s["kernel"] += t1 - t0
-            if caster is not None:
-                i, j = np.nonzero(e > 0)
-                if len(i):
-                    blocked = caster.occluded(pos[sl][i], points[j])
-                    e[i[blocked], j[blocked]] = 0.0
-                    result.shadow_rays += len(i)
-                result.timing_s["shadow_rays"] += time.perf_counter() - t1
-            owners = owner[sl]
-            for lum_net in np.unique(owners):
-                out[lum_net] += e[owners == lum_net].sum(axis=0)
-            done += n
+            sl = slice(c0, c0 + per_cull)
+            d = pts32[None, :, :] - pos[sl, None, :].astype(np.float32)
+            facing = np.einsum("lpk,pk->lp", d, nrm32) < 0
+            along = np.einsum("lpk,lk->lp", d, axis[sl].astype(np.float32))
+            inside = along >= cos_support * np.sqrt(np.einsum("lpk,lpk->lp", d, d)) - 1e-6
+            i, j = np.nonzero(facing & inside)
+            result.timing_s["cull"] += time.perf_counter() - t0
+            pending.append(((i + c0).astype(np.int32), j.astype(np.int32)))
+            pending_n += len(i)
+            result.candidate_pairs += len(i)
+            if pending_n >= _PAIRS_PER_CALL or c0 + per_cull >= len(pos):
+                src = np.concatenate([p[0] for p in pending])
+                rcv = np.concatenate([p[1] for p in pending])
+                pending, pending_n = [], 0
+                _evaluate_pairs(batch, src, rcv, pts_j, nrm_j, points, caster, out, result)
+            done += len(pos[sl])
             if progress is not None:
                 progress(done, total)
 
@@ -151,6 +183,52 @@ def direct_illuminance(
         if progress is not None:
             progress(done, total)
     return result
+
+
+@dataclass(frozen=True)
+class _SourceBatch:
+    """Sources sharing one distribution: JAX tables (with one scale-0 padding source last),
+    world positions (numpy, for shadow rays) and each source's network index."""
+
+    distribution: object
+    tables: tuple
+    positions: np.ndarray
+    network: np.ndarray
+
+
+def _bucket(n: int) -> int:
+    """Padded call size: powers of 4 from 4096 up, so few shapes are ever compiled."""
+    size = 4096
+    while size < n:
+        size *= 4
+    return min(size, _PAIRS_PER_CALL)
+
+
+def _evaluate_pairs(batch, src, rcv, pts_j, nrm_j, points, caster, out, result) -> None:
+    """Illuminance of candidate pairs, shadowed, summed into ``out[network, point]``."""
+    n_pts = len(points)
+    pad_src = len(batch.positions)
+    for c0 in range(0, len(src), _PAIRS_PER_CALL):
+        s_idx, r_idx = src[c0:c0 + _PAIRS_PER_CALL], rcv[c0:c0 + _PAIRS_PER_CALL]
+        n = len(s_idx)
+        pad = _bucket(n) - n
+        t0 = time.perf_counter()
+        e = np.array(_pair_block(
+            batch.distribution, *batch.tables, pts_j, nrm_j,
+            jnp.asarray(np.pad(s_idx, (0, pad), constant_values=pad_src)),
+            jnp.asarray(np.pad(r_idx, (0, pad))),
+        ), dtype=np.float64)[:n]
+        t1 = time.perf_counter()
+        result.timing_s["kernel"] += t1 - t0
+        if caster is not None:
+            lit = np.flatnonzero(e > 0)
+            if len(lit):
+                blocked = caster.occluded(batch.positions[s_idx[lit]], points[r_idx[lit]])
+                e[lit[blocked]] = 0.0
+                result.shadow_rays += len(lit)
+            result.timing_s["shadow_rays"] += time.perf_counter() - t1
+        flat = batch.network[s_idx].astype(np.int64) * n_pts + r_idx
+        out.reshape(-1)[:] += np.bincount(flat, weights=e, minlength=out.size)
 
 
 def _point_source_batches(scene, points):

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, Float, Int
 
-__all__ = ["point_illuminance", "polygon_form_factor", "quad_form_factors"]
+__all__ = ["point_illuminance", "pair_illuminance", "polygon_form_factor", "quad_form_factors"]
 
 _TINY = 1e-12
 
@@ -49,6 +49,32 @@ def point_illuminance(
         return s * intensity * cos_r / r2
 
     return jax.vmap(one)(positions, rotations, scales)
+
+
+def pair_illuminance(
+    distribution,
+    positions: Float[Array, "lum 3"],
+    rotations: Float[Array, "lum 3 3"],
+    scales: Float[Array, " lum"],
+    points: Float[Array, "points 3"],
+    normals: Float[Array, "points 3"],
+    source: Int[Array, " pairs"],
+    receiver: Int[Array, " pairs"],
+) -> Float[Array, " pairs"]:
+    """Unshadowed illuminance (lx) for a list of (source, receiver) index pairs.
+
+    The same physics as :func:`point_illuminance`, evaluated only where the caller found light
+    can arrive (inside a source's beam, on a receiver's front side): for a spot aimed at a facade
+    that is a few per cent of all pairs. Index arrays may be padded; pad with a source whose
+    scale is 0.
+    """
+    pos = positions[source]
+    d = points[receiver] - pos
+    r2 = jnp.maximum(jnp.sum(d * d, axis=-1), _TINY)
+    w = d * jax.lax.rsqrt(r2)[:, None]
+    local = jnp.einsum("nij,ni->nj", rotations[source], w)  # rotᵀ·w per pair
+    cos_r = jnp.maximum(-jnp.sum(w * normals[receiver], axis=-1), 0.0)
+    return scales[source] * distribution.intensity(local) * cos_r / r2
 
 
 def _edge_term(a, b, n):

@@ -164,8 +164,38 @@ def _locate(grid, x):
     return i, (x - g0) / (g1 - g0)
 
 
-@functools.partial(jax.jit, static_argnums=0)
-def _intensity(photometric_type: str, h_deg, v_deg, candela, d):
+def _cell_lut(grid: np.ndarray) -> tuple[np.ndarray, int]:
+    """A uniform-bin lookup table of cells for an ascending, non-uniform grid.
+
+    ``lut[k]`` is the cell holding bin k's left edge; a search then costs one gather and
+    ``steps`` comparisons (the most knots any bin holds) instead of a binary search, which is
+    the dominant cost of a lookup when evaluated 10⁸ times.
+    """
+    n = len(grid)
+    span = float(grid[-1] - grid[0])
+    bins = int(np.clip(np.ceil(2.0 * span / np.min(np.diff(grid))), 64, 1 << 16))
+    edges = grid[0] + np.arange(bins + 1) * (span / bins)
+    lut = np.clip(np.searchsorted(grid, edges[:-1], side="right") - 1, 0, n - 2)
+    inner = np.searchsorted(grid, edges[1:], side="right") - 1
+    steps = int(np.max(np.clip(inner, 0, n - 2) - lut)) if bins else 0
+    return lut.astype(np.int32), steps
+
+
+def _locate_lut(grid, lut, steps: int, x):
+    """As :func:`_locate`, through a :func:`_cell_lut` table (same cells, exactly)."""
+    n, bins = grid.shape[0], lut.shape[0]
+    scale = bins / (grid[-1] - grid[0])
+    k = jnp.clip(jnp.floor((x - grid[0]) * scale).astype(jnp.int32), 0, bins - 1)
+    i = lut[k]
+    for _ in range(steps + 1):  # +1 covers a bin index rounded down at a bin edge
+        i = jnp.where((i < n - 2) & (x >= grid[jnp.minimum(i + 1, n - 1)]), i + 1, i)
+    i = jnp.where((i > 0) & (x < grid[i]), i - 1, i)  # …or rounded up
+    g0 = grid[i]
+    return i, (x - g0) / (grid[i + 1] - g0)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 6, 7))
+def _intensity(photometric_type: str, h_deg, v_deg, candela, d, luts, h_steps, v_steps):
     # One compiled kernel per (type, shapes, dtype), so eager callers do not pay for op-by-op
     # dispatch; inside a caller's jit this is simply inlined.
     dtype = d.dtype
@@ -173,8 +203,12 @@ def _intensity(photometric_type: str, h_deg, v_deg, candela, d):
     v = v_deg.astype(dtype)
     cd = candela.astype(dtype)
     a, b = _grid_coords(photometric_type, d)
-    i, s = _locate(h, a)
-    j, t = _locate(v, b)
+    if luts is None:  # a distribution built under a trace: binary search
+        i, s = _locate(h, a)
+        j, t = _locate(v, b)
+    else:
+        i, s = _locate_lut(h, luts[0], h_steps, a)
+        j, t = _locate_lut(v, luts[1], v_steps, b)
     c00 = cd[i, j]
     c01 = cd[i, j + 1]
     c10 = cd[i + 1, j]
@@ -222,6 +256,8 @@ class CandelaDistribution(eqx.Module):
     h_deg: Float[Array, " h"]
     v_deg: Float[Array, " v"]
     candela: Float[Array, "h v"]
+    luts: tuple[Array, Array] | None  # cell lookup tables (see _cell_lut), None if traced
+    lut_steps: tuple[int, int] = eqx.field(static=True)
 
     def __init__(
         self,
@@ -244,6 +280,9 @@ class CandelaDistribution(eqx.Module):
             self.h_deg = jnp.asarray(hn, dtype=dtype)
             self.v_deg = jnp.asarray(vn, dtype=dtype)
             self.candela = jnp.asarray(cn, dtype=dtype)
+            (hl, hs), (vl, vs) = _cell_lut(hn), _cell_lut(vn)
+            self.luts = (jnp.asarray(hl), jnp.asarray(vl))
+            self.lut_steps = (hs, vs)
             return
         h = jnp.asarray(h_deg)
         v = jnp.asarray(v_deg)
@@ -255,6 +294,8 @@ class CandelaDistribution(eqx.Module):
         self.candela = _tie_poles_impl(
             photometric_type, self.h_deg, self.v_deg, cd.astype(dtype), jnp
         )
+        self.luts = None
+        self.lut_steps = (0, 0)
 
     def intensity(self, d: Float[Array, "... 3"]) -> Float[Array, "..."]:
         """Intensity (cd) towards local directions ``d``.
@@ -275,7 +316,8 @@ class CandelaDistribution(eqx.Module):
         d = jnp.asarray(d)
         if not jnp.issubdtype(d.dtype, jnp.floating):
             d = d.astype(self.candela.dtype)
-        return _intensity(self.photometric_type, self.h_deg, self.v_deg, self.candela, d)
+        return _intensity(self.photometric_type, self.h_deg, self.v_deg, self.candela, d,
+                          self.luts, *self.lut_steps)
 
     def flux(self) -> Float[Array, ""]:
         """Luminous flux (lm): the exact integral of the interpolant over the sphere.
