@@ -66,7 +66,7 @@ def parse_config(text: str, *, source: str | Path | None = None) -> StudyConfig:
             _describe(err) + _more(len(e.errors())), file=src, key=key or None,
             line=_find_line(text, key),
         ) from None
-    cfg = cfg.model_copy(update={"source": src.resolve() if src is not None else None})
+    cfg._source = src.resolve() if src is not None else None
     _check_references(cfg, src, text)
     return cfg
 

@@ -18,6 +18,7 @@ from pydantic import (
     ConfigDict,
     Discriminator,
     Field,
+    PrivateAttr,
     Tag,
     ValidationInfo,
     field_validator,
@@ -50,6 +51,8 @@ def _finite(v: float) -> float:
 
 
 Finite = Annotated[float, AfterValidator(_finite)]
+Positive = Annotated[float, Field(gt=0), AfterValidator(_finite)]
+NonNegative = Annotated[float, Field(ge=0), AfterValidator(_finite)]
 Vec3 = tuple[Finite, Finite, Finite]
 Name = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")]
 
@@ -186,7 +189,7 @@ class BuiltinPhotometry(_Model):
     """``[photometry.NAME] kind = "isotropic" | "lambertian"`` with ``flux_lm``."""
 
     kind: Literal["isotropic", "lambertian"]
-    flux_lm: Annotated[float, Field(gt=0)]
+    flux_lm: Positive
 
 
 class Aim(_Model):
@@ -219,7 +222,7 @@ class PhotometricLuminaire(_LuminaireBase):
     position: Vec3
     aim: Aim | None = None
     aim_at: Vec3 | None = None
-    multiplier: Annotated[float, Field(ge=0)] = 1.0
+    multiplier: NonNegative = 1.0
     maintenance_factor: Annotated[float, Field(gt=0, le=1)] = 1.0
 
     @model_validator(mode="after")
@@ -238,13 +241,14 @@ class AreaLuminaire(_LuminaireBase):
     origin: Vec3
     u: Vec3
     v: Vec3
-    flux_lm: Annotated[float, Field(gt=0)]
+    flux_lm: Positive
     maintenance_factor: Annotated[float, Field(gt=0, le=1)] = 1.0
 
 
 def _luminaire_kind(v) -> str:
-    kind = v.get("kind", "photometric") if isinstance(v, dict) else getattr(v, "kind", None)
-    return kind if kind in ("photometric", "area") else "photometric"
+    # 'kind' is optional for the common case; an unknown kind is passed on so the error lists
+    # the valid ones
+    return v.get("kind", "photometric") if isinstance(v, dict) else getattr(v, "kind", None)
 
 
 Luminaire = Annotated[
@@ -274,7 +278,7 @@ class NetworkConfig(_Model):
 class _GridBase(_Model):
     name: Name
     group: Name | None = None
-    target_lux: Annotated[float, Field(ge=0)] | None = None
+    target_lux: NonNegative | None = None
 
 
 class PlaneGrid(_GridBase):
@@ -286,7 +290,7 @@ class PlaneGrid(_GridBase):
     v: Vec3
     nu: Annotated[int, Field(ge=1, le=100_000)] | None = None
     nv: Annotated[int, Field(ge=1, le=100_000)] | None = None
-    spacing: Annotated[float, Field(gt=0)] | None = None
+    spacing: Positive | None = None
     normal: Vec3 | None = None
 
     @model_validator(mode="after")
@@ -329,4 +333,9 @@ class StudyConfig(_Model):
     luminaires: list[Luminaire] = []
     networks: dict[Name, NetworkConfig] = {}
     grids: list[Grid] = []
-    source: Path | None = Field(None, exclude=True)
+    _source: Path | None = PrivateAttr(None)
+
+    @property
+    def source(self) -> Path | None:
+        """The TOML file this config was read from (None when parsed from text)."""
+        return self._source

@@ -16,10 +16,18 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import file_mode
-from ..errors import OutputError
+from ..errors import LumijaxError, OutputError
 from ._results import Results
 
 __all__ = ["write_results"]
+
+
+def _spans_an_area(points: np.ndarray) -> bool:
+    if len(points) < 3:
+        return False
+    centred = points - points.mean(axis=0)
+    sv = np.linalg.svd(centred, compute_uv=False)
+    return bool(sv[1] > 1e-9 * max(sv[0], 1e-300))
 
 
 def _grid_csv(points: np.ndarray, lux: np.ndarray) -> str:
@@ -59,12 +67,18 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
 
             (staging / "images").mkdir()
             for name, g in results.grids.items():
+                if not _spans_an_area(g.points):
+                    continue  # a map of one point, or of points on a line, shows nothing
                 normal = g.normals.mean(axis=0)
-                falsecolour_map(
-                    g.points, g.illuminance_lux, staging / "images" / f"{name}.png",
-                    shape=g.shape, normal=normal if np.linalg.norm(normal) > 0 else None,
-                    title=f"{results.study} — {name}",
-                )
+                try:
+                    falsecolour_map(
+                        g.points, g.illuminance_lux, staging / "images" / f"{name}.png",
+                        shape=g.shape, normal=normal if np.linalg.norm(normal) > 0 else None,
+                        title=f"{results.study} — {name}",
+                    )
+                except LumijaxError as e:
+                    raise OutputError(f"cannot draw the map of grid {name!r}: {e.message}",
+                                      file=out_dir) from None
                 written[f"images/{name}.png"] = Path("images") / f"{name}.png"
         final: dict[str, Path] = {}
         mode = file_mode()

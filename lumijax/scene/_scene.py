@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -176,16 +176,16 @@ def build_scene(cfg: StudyConfig) -> Scene:
         else:
             tilt = lum.aim.tilt if lum.aim is not None else 0.0
             pan = lum.aim.pan if lum.aim is not None else 0.0
-        phot = photometries[lum.photometry]
-        tilt_factor = 1.0
-        if getattr(phot, "tilt", None) is not None:
-            tilt_factor = float(phot.tilt.factor(tilt))
-        luminaires.append(Luminaire(
+        placed = Luminaire(
             name=lum.name, photometry=lum.photometry, position=position, tilt=tilt, pan=pan,
-            spin=spin, network=lum.network,
-            scale=lum.multiplier * lum.maintenance_factor * tilt_factor,
+            spin=spin, network=lum.network, scale=lum.multiplier * lum.maintenance_factor,
             frame_rotation=rot, spectrum=spectrum, config_index=i,
-        ))
+        )
+        phot = photometries[lum.photometry]
+        if phot.tilt is not None:  # LM-63 TILT: the lamp's output depends on its real tilt
+            world_tilt = float(np.degrees(np.arccos(np.clip(-placed.axis[2], -1.0, 1.0))))
+            placed = replace(placed, scale=placed.scale * float(phot.tilt.factor(world_tilt)))
+        luminaires.append(placed)
 
     grids = tuple(_grid(g, frame_of(g.group), src, f"grids[{i}]") for i, g in enumerate(cfg.grids))
 

@@ -139,3 +139,12 @@ def test_demo_runs_the_bundled_study(tmp_path, capsys):
         assert (out / "images" / f"{name}.png").stat().st_size > 10_000
         assert res["grids"][name]["stats"]["avg"] > 0
     assert "facade" in capsys.readouterr().out
+
+
+def test_tiny_point_grid_has_numbers_but_no_map(write_study, tmp_path):
+    cfg = write_study(STUDY + '[[grids]]\nname = "spot"\nkind = "points"\npoints = [[2, 1.5, 0.8]]\n')
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "--out", str(out)]) == 0
+    assert (out / "grids" / "spot.csv").exists()
+    assert not (out / "images" / "spot.png").exists()
+    assert (out / "images" / "floor.png").exists()

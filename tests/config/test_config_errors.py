@@ -132,3 +132,25 @@ def test_scene_level_errors_name_the_config_key(write_study, old, new, key, word
         load_study(path)
     assert info.value.key == key
     assert words in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "old,new,key",
+    [("flux_lm = 1000", "flux_lm = inf", "photometry.iso.flux_lm"),
+     ('network = "main"\naim', 'network = "main"\nmultiplier = inf\naim', "luminaires[1].multiplier"),
+     ("nu = 8\nnv = 10", "spacing = inf", "grids[0].spacing")],
+)
+def test_infinite_values_are_refused(write_study, old, new, key):
+    with pytest.raises(ConfigError, match="finite") as info:
+        load_config(write_study(BASE.replace(old, new, 1)))
+    assert info.value.key == key
+
+
+def test_source_is_not_a_config_key(write_study):
+    with pytest.raises(ConfigError, match="unknown key"):
+        load_config(write_study('source = "elsewhere.toml"\n' + BASE))
+
+
+def test_unknown_luminaire_kind_lists_the_valid_ones(write_study):
+    with pytest.raises(ConfigError, match="'photometric', 'area'"):
+        load_config(write_study(BASE.replace('name = "L0"', 'name = "L0"\nkind = "spot"', 1)))

@@ -183,3 +183,34 @@ def test_luminaire_inside_a_solid_is_refused(write_study):
     assert info.value.key == "luminaires[0].position"
     # the same box as a room (inward normals) is where a light belongs
     load_study(write_study(text.replace("NORMALS", "inward"), "room.toml"))
+
+
+def test_lm63_tilt_factor_follows_the_real_world_tilt(write_study, shared_photometry):
+    """er_TILT_TEST_SYNTHETIC.ies: factors 1.0/0.9/0.8/1.0 at 0/45/90/180° (read off its header).
+    A luminaire with zero aim inside a group turned 90° about x is tilted 90° in the world."""
+    path = write_study(f"""
+        [photometry.t]
+        file = "{shared_photometry / 'er_TILT_TEST_SYNTHETIC.ies'}"
+        [groups.turned]
+        rotate = [90, 0, 0]
+        [[luminaires]]
+        name = "straight"
+        photometry = "t"
+        position = [0, 0, 3]
+        network = "n"
+        [[luminaires]]
+        name = "half"
+        photometry = "t"
+        position = [0, 0, 3]
+        network = "n"
+        aim = {{ tilt = 45 }}
+        [[luminaires]]
+        name = "in-group"
+        photometry = "t"
+        position = [0, 0, 3]
+        group = "turned"
+        network = "n"
+    """)
+    with pytest.warns(UserWarning):  # the synthetic file's header flux is inconsistent
+        lums = load_study(path).scene.luminaires
+    assert [round(lum.scale, 6) for lum in lums] == [1.0, 0.9, 0.8]
