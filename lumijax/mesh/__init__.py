@@ -1,6 +1,10 @@
 """Meshing into radiosity patches and admissible block partitioning (see ``docs/radiosity.md``)."""
 
-from ._partition import Partition as Partition, partition as partition
+from ._partition import (
+    Partition as Partition,
+    PartitionSettings as PartitionSettings,
+    partition as partition,
+)
 from ._patches import (
     Patches as Patches,
     mesh_patches as mesh_patches,

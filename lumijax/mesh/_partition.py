@@ -16,6 +16,8 @@ Only the remaining (visible) pairs are ever computed.
 
 from __future__ import annotations
 
+import dataclasses
+
 import equinox as eqx
 import numpy as np
 from jaxtyping import Float, Int
@@ -23,7 +25,17 @@ from jaxtyping import Float, Int
 from ..errors import GeometryError
 from ._patches import Patches
 
-__all__ = ["Partition", "partition"]
+__all__ = ["Partition", "PartitionSettings", "partition"]
+
+
+@dataclasses.dataclass(frozen=True)
+class PartitionSettings:
+    """The keyword arguments of :func:`partition` as one hashable value (part of a cache key)."""
+
+    max_block: int = 1024
+    samples: int = 256
+    min_facing: int = 8
+    seed: int = 0
 
 
 class Partition(eqx.Module):

@@ -7,8 +7,15 @@ from ._kernels import (
 )
 from ._operator import (
     Bucket as Bucket,
+    LowRankBucket as LowRankBucket,
     ReflectionOperator as ReflectionOperator,
     TransportOperator as TransportOperator,
     load_operator as load_operator,
+)
+from ._store import (
+    FORMAT as FORMAT,
+    OperatorFileError as OperatorFileError,
+    cache_path as cache_path,
+    cached_operator as cached_operator,
     operator_key as operator_key,
 )

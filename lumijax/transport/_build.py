@@ -25,7 +25,8 @@ import numpy as np
 from ..mesh._partition import Partition
 from ..mesh._patches import Patches, _template
 from ._kernels import form_factor_point_triangle
-from ._operator import Bucket, Info, TransportOperator
+from ._lowrank import aca_block, clear_pairs, separated
+from ._operator import Bucket, Info, LowRankBucket, TransportOperator
 
 __all__ = ["FormFactorSettings", "build_operator"]
 
@@ -50,6 +51,16 @@ class FormFactorSettings:
     """Average A_i F_ij and A_j F_ji for near pairs (exact reciprocity; halves quadrature bias)."""
     max_bytes_per_step: int = 1 << 26
     """Block data per step of a product (chunking of the scan; memory, not accuracy)."""
+    lowrank: bool = True
+    """Compress well-separated, unoccluded block pairs to ``U Vᵀ`` (see ``_lowrank.py``)."""
+    lowrank_eta: float = 1.5
+    """Well separated: gap between the blocks' bounding spheres > eta × the larger radius."""
+    lowrank_tol: float = 1e-3
+    """Relative Frobenius error of each compressed block."""
+    lowrank_samples: int = 256
+    """Shadow rays sampled per candidate pair; any blocked one keeps the pair dense."""
+    lowrank_max_fraction: float = 0.5
+    """Keep a pair dense unless its factors take at most this fraction of the dense block."""
 
 
 _LADDER = np.array([8 * round(32 * 2 ** (k / 2) / 8) for k in range(24)])
@@ -58,6 +69,55 @@ _LADDER = np.array([8 * round(32 * 2 ** (k / 2) / 8) for k in range(24)])
 def _pad(n: int) -> int:
     """Padded block size: next rung of a √2 ladder (≤ 41 % padding per side)."""
     return int(_LADDER[np.searchsorted(_LADDER, n)])
+
+
+_RANKS = np.array([4, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512, 768, 1024, 1536])
+
+
+def _pad_rank(r: int) -> int:
+    return int(_RANKS[np.searchsorted(_RANKS, r)]) if r <= _RANKS[-1] else r
+
+
+def _chunking(n: int, per_pair: int, max_bytes: int) -> tuple[int, int]:
+    """(pairs per scan step, total padded pairs) for n pairs of per_pair bytes each."""
+    chunk = int(max(1, min(n, max_bytes // per_pair)))
+    steps = -(-n // chunk)
+    chunk = -(-n // steps)
+    return chunk, steps * chunk
+
+
+def _compress(patches, part, s: FormFactorSettings, caster, diam, counters):
+    """{pair index: (U, V)} for the far pairs that compress; the rest stay dense."""
+    t0 = time.perf_counter()
+    cand = np.flatnonzero(separated(patches, part, s.lowrank_eta, s.near_ratio, diam))
+    out, ranks = {}, []
+    counters.update(lowrank_candidates=len(cand), lowrank_mixed=0, lowrank_rank_cap=0)
+    if len(cand):
+        t1 = time.perf_counter()
+        ok, rays = clear_pairs(patches, part, cand, caster, s.lowrank_samples, 8)
+        counters["ray_time"] += time.perf_counter() - t1
+        counters["rays"] += rays
+        counters["lowrank_sample_rays"] = rays
+        counters["lowrank_mixed"] = int((~ok).sum())
+        for k in cand[ok]:
+            a, b = part.pairs[k]
+            ia, ib = part.block(a), part.block(b)
+            m, n = len(ia), len(ib)
+            cap = int(s.lowrank_max_fraction * m * n / (m + n))
+            res = aca_block(
+                patches.centroid[ia], patches.normal[ia], patches.area[ia],
+                patches.centroid[ib], patches.normal[ib], patches.area[ib],
+                s.lowrank_tol, cap, seed=int(k),
+            )
+            if res is None:
+                counters["lowrank_rank_cap"] += 1
+                continue
+            out[int(k)] = res[:2]
+            ranks.append(res[2]["rank"])
+    counters["lowrank_pairs"] = len(out)
+    counters["lowrank_ranks"] = ranks
+    counters["lowrank_time"] = time.perf_counter() - t0
+    return out
 
 
 _BATCH = 1 << 15  # receiver points per kernel call: one fixed shape, one compilation
@@ -207,20 +267,44 @@ def build_operator(
     diam = patches.diameter
     sizes = part.sizes
     npatch = patches.n
+    lowrank = _compress(patches, part, s, caster, diam, counters) if s.lowrank else {}
     # Bucket every visible pair by its padded shape, and preallocate (no second copy).
-    keys = {}
+    keys, lr_keys = {}, {}
     for k, (a, b) in enumerate(part.pairs):
+        if k in lowrank:
+            r = lowrank[k][0].shape[1]
+            if r:  # r = 0: the pair exchanges nothing (no facing patches)
+                lr_keys.setdefault((_pad(sizes[a]), _pad(sizes[b]), _pad_rank(r)), []).append(k)
+            continue
         key = (_pad(sizes[a]), _pad(sizes[b]), bool(a == b))
         keys.setdefault(key, []).append(k)
     buckets = []
     nnz = 0
+    lr_entries = 0
+    for (sa, sb, r), ks in sorted(lr_keys.items()):
+        chunk, total = _chunking(len(ks), (sa + sb) * r * np.dtype(dtype).itemsize,
+                                 s.max_bytes_per_step)
+        u = np.zeros((total, sa, r), dtype)
+        v = np.zeros((total, sb, r), dtype)
+        recv = np.full((total, sa), npatch, np.int32)
+        src = np.full((total, sb), npatch, np.int32)
+        rblk = np.full(total, -1, np.int32)
+        sblk = np.full(total, -1, np.int32)
+        for slot, k in enumerate(ks):
+            a, b = part.pairs[k]
+            ia, ib = part.block(a), part.block(b)
+            uu, vv = lowrank[k]
+            u[slot, : len(ia), : uu.shape[1]] = uu
+            v[slot, : len(ib), : vv.shape[1]] = vv
+            recv[slot, : len(ia)], src[slot, : len(ib)] = ia, ib
+            rblk[slot], sblk[slot] = a, b
+            lr_entries += 2 * len(ia) * len(ib)
+        buckets.append(LowRankBucket(*(jnp.asarray(x) for x in (u, v, recv, src, rblk, sblk)),
+                                     chunk))
     for (sa, sb, diagonal), ks in sorted(keys.items()):
         n = len(ks)
         per_pair = sa * sb * np.dtype(dtype).itemsize
-        chunk = int(max(1, min(n, s.max_bytes_per_step // per_pair)))
-        steps = -(-n // chunk)
-        chunk = -(-n // steps)
-        total = steps * chunk
+        chunk, total = _chunking(n, per_pair, s.max_bytes_per_step)
         blocks = np.zeros((total, sa, sb), dtype)
         recv = np.full((total, sa), npatch, np.int32)
         src = np.full((total, sb), npatch, np.int32)
@@ -248,6 +332,14 @@ def build_operator(
         rays=counters["rays"],
         ray_time_s=counters["ray_time"],
         near_pairs=counters["near_pairs"],
+        lowrank_candidates=counters.get("lowrank_candidates", 0),
+        lowrank_pairs=counters.get("lowrank_pairs", 0),
+        lowrank_mixed_visibility=counters.get("lowrank_mixed", 0),
+        lowrank_rank_cap=counters.get("lowrank_rank_cap", 0),
+        lowrank_rank_mean=float(np.mean(counters["lowrank_ranks"])) if counters.get("lowrank_ranks") else 0.0,
+        lowrank_rank_max=int(max(counters["lowrank_ranks"])) if counters.get("lowrank_ranks") else 0,
+        lowrank_entries=lr_entries,
+        lowrank_time_s=counters.get("lowrank_time", 0.0),
         build_time_s=time.perf_counter() - t_start,
         settings=dataclasses.asdict(s),
     )

@@ -13,7 +13,6 @@ patch ``P`` whose value is zero.
 
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 
@@ -24,9 +23,14 @@ import lineax as lx
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ..errors import OutputError
-
-__all__ = ["Bucket", "Info", "TransportOperator", "ReflectionOperator", "load_operator", "operator_key"]
+__all__ = [
+    "Bucket",
+    "LowRankBucket",
+    "Info",
+    "TransportOperator",
+    "ReflectionOperator",
+    "load_operator",
+]
 
 
 class Bucket(eqx.Module):
@@ -43,6 +47,25 @@ class Bucket(eqx.Module):
     src_block: Int[Array, " n"]
     diagonal: bool = eqx.field(static=True)
     chunk: int = eqx.field(static=True)
+
+
+class LowRankBucket(eqx.Module):
+    """Stacked low-rank blocks ``G[recv[k]][:, src[k]] ≈ u[k] @ v[k].T`` of one padded shape.
+
+    Far-apart, mutually visible block pairs (upper pairs ``a < b``, used in both directions:
+    the transposed block is ``v[k] @ u[k].T``, so the stored G stays exactly symmetric).
+    Padding rows and rank columns are zero.
+    """
+
+    u: Float[Array, "n sa r"]
+    v: Float[Array, "n sb r"]
+    recv: Int[Array, "n sa"]
+    src: Int[Array, "n sb"]
+    recv_block: Int[Array, " n"]
+    src_block: Int[Array, " n"]
+    chunk: int = eqx.field(static=True)
+
+    diagonal = False  # never a diagonal block (a block is not well separated from itself)
 
 
 class Info(dict):
@@ -85,6 +108,37 @@ def _bucket_apply(bk: Bucket, xext: Array, out: Array, only_block=None) -> Array
     return out
 
 
+def _lowrank_apply(bk: LowRankBucket, xext: Array, out: Array, only_block=None) -> Array:
+    """out += (U Vᵀ) x[src] into recv and (V Uᵀ) x[recv] into src, batched like the dense case."""
+    n, sa, r = bk.u.shape
+    sb = bk.v.shape[1]
+    steps = n // bk.chunk
+    u = bk.u.reshape(steps, bk.chunk, sa, r)
+    v = bk.v.reshape(steps, bk.chunk, sb, r)
+    rr = bk.recv.reshape(steps, bk.chunk, sa)
+    ss = bk.src.reshape(steps, bk.chunk, sb)
+    rb = bk.recv_block.reshape(steps, bk.chunk)
+    sbk = bk.src_block.reshape(steps, bk.chunk)
+
+    def compute(acc, uk, vk, rk, sk):
+        uk, vk = uk.astype(xext.dtype), vk.astype(xext.dtype)
+        t = jnp.einsum("njr,njc->nrc", vk, xext[sk])
+        acc = acc.at[rk].add(jnp.einsum("nir,nrc->nic", uk, t))
+        t = jnp.einsum("nir,nic->nrc", uk, xext[rk])
+        return acc.at[sk].add(jnp.einsum("njr,nrc->njc", vk, t))
+
+    def body(acc, xs):
+        uk, vk, rk, sk, rbk, sbkk = xs
+        if only_block is None:
+            return compute(acc, uk, vk, rk, sk), None
+        touches = jnp.any((rbk == only_block) | (sbkk == only_block))
+        acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, uk, vk, rk, sk)
+        return acc, None
+
+    out, _ = jax.lax.scan(body, out, (u, v, rr, ss, rb, sbk))
+    return out
+
+
 @eqx.filter_jit
 def _gmul(op: TransportOperator, x, only_block):
     shape = x.shape
@@ -92,8 +146,16 @@ def _gmul(op: TransportOperator, x, only_block):
     xext = jnp.concatenate([x2, jnp.zeros((1, x2.shape[1]), x2.dtype)])
     out = jnp.zeros_like(xext)
     for bk in op.buckets:
-        out = _bucket_apply(bk, xext, out, only_block)
+        if isinstance(bk, LowRankBucket):
+            out = _lowrank_apply(bk, xext, out, only_block)
+        else:
+            out = _bucket_apply(bk, xext, out, only_block)
     return out[:-1].reshape(shape)
+
+
+def _bucket_nbytes(bk) -> int:
+    data = bk.u.nbytes + bk.v.nbytes if isinstance(bk, LowRankBucket) else bk.blocks.nbytes
+    return int(data + bk.recv.nbytes + bk.src.nbytes)
 
 
 class TransportOperator(eqx.Module):
@@ -103,7 +165,7 @@ class TransportOperator(eqx.Module):
     on the front of patch j. Build with :func:`~lumijax.transport.build_operator`.
     """
 
-    buckets: tuple[Bucket, ...]
+    buckets: tuple[Bucket | LowRankBucket, ...]
     area: Float[Array, " patches"]
     block_of: Int[Array, " patches"]
     n_patches: int = eqx.field(static=True)
@@ -138,7 +200,11 @@ class TransportOperator(eqx.Module):
         p = self.n_patches
         g = np.zeros((p + 1, p + 1))
         for bk in self.buckets:
-            d = np.asarray(bk.blocks, np.float64)
+            if isinstance(bk, LowRankBucket):
+                u, v = np.asarray(bk.u, np.float64), np.asarray(bk.v, np.float64)
+                d = np.einsum("nir,njr->nij", u, v)
+            else:
+                d = np.asarray(bk.blocks, np.float64)
             r, s = np.asarray(bk.recv), np.asarray(bk.src)
             for k in range(len(d)):
                 g[np.ix_(r[k], s[k])] += d[k]
@@ -148,66 +214,37 @@ class TransportOperator(eqx.Module):
 
     @property
     def nbytes(self) -> int:
-        return int(sum(bk.blocks.nbytes + bk.recv.nbytes + bk.src.nbytes for bk in self.buckets))
+        """Bytes of stored blocks and their index arrays (padding included)."""
+        return int(sum(_bucket_nbytes(bk) for bk in self.buckets))
 
-    # -- persistence: plain arrays, so the lead's cache can key and store them --------------------
-    def save(self, path: str | Path) -> None:
-        """Write the operator to ``path`` (``.npz``: plain arrays plus a JSON header)."""
-        arrays = {"area": np.asarray(self.area), "block_of": np.asarray(self.block_of)}
-        for k, bk in enumerate(self.buckets):
-            for name in ("blocks", "recv", "src", "recv_block", "src_block"):
-                arrays[f"b{k}_{name}"] = np.asarray(getattr(bk, name))
-        head = {
-            "format": "lumijax.transport/1",
-            "n_patches": self.n_patches,
-            "n_blocks": self.n_blocks,
-            "buckets": [{"diagonal": bk.diagonal, "chunk": bk.chunk} for bk in self.buckets],
-            "info": self.info,
-        }
-        arrays["header"] = np.frombuffer(json.dumps(head).encode(), np.uint8)
-        try:
-            with open(path, "wb") as f:
-                np.savez(f, **arrays)
-        except OSError as e:
-            raise OutputError(f"cannot write the transport operator: {e}", file=path) from e
+    @property
+    def dense_nbytes(self) -> int:
+        """Bytes in dense buckets (the near field)."""
+        return int(sum(_bucket_nbytes(bk) for bk in self.buckets if isinstance(bk, Bucket)))
+
+    @property
+    def lowrank_nbytes(self) -> int:
+        """Bytes in low-rank buckets (the compressed far field)."""
+        return int(sum(_bucket_nbytes(bk) for bk in self.buckets if isinstance(bk, LowRankBucket)))
+
+    # -- persistence: a checksummed container (see _store.py) --------------------------------------
+    def save(self, path: str | Path, *, key: str | None = None) -> Path:
+        """Write the operator to ``path`` atomically, with a SHA-256 of its content."""
+        from ._store import write_operator
+
+        return write_operator(path, self, key=key)
 
 
-def load_operator(path: str | Path) -> TransportOperator:
-    """Read an operator written by :meth:`TransportOperator.save`."""
-    with np.load(path) as z:
-        head = json.loads(bytes(z["header"]).decode())
-        if head.get("format") != "lumijax.transport/1":
-            raise OutputError(f"not a lumijax transport operator: {head.get('format')!r}", file=path)
-        buckets = tuple(
-            Bucket(
-                *(
-                    jnp.asarray(z[f"b{k}_{name}"])
-                    for name in ("blocks", "recv", "src", "recv_block", "src_block")
-                ),
-                diagonal=b["diagonal"],
-                chunk=b["chunk"],
-            )
-            for k, b in enumerate(head["buckets"])
-        )
-        return TransportOperator(
-            buckets,
-            jnp.asarray(z["area"]),
-            jnp.asarray(z["block_of"]),
-            head["n_patches"],
-            head["n_blocks"],
-            Info(head["info"]),
-        )
+def load_operator(path: str | Path, *, key: str | None = None) -> TransportOperator:
+    """Read an operator written by :meth:`TransportOperator.save`.
 
+    Raises :class:`~lumijax.transport.OperatorFileError` if the file is truncated or corrupt
+    (checksum mismatch), was written by another format version, or (with ``key``) holds
+    another operator.
+    """
+    from ._store import read_operator
 
-def operator_key(triangles, material, group, **settings) -> str:
-    """A hex digest of geometry + meshing/form-factor settings, to key a cache of operators."""
-    h = hashlib.sha256()
-    for a in (triangles, material, group):
-        a = np.ascontiguousarray(a)
-        h.update(str((a.dtype.str, a.shape)).encode())
-        h.update(a.tobytes())
-    h.update(json.dumps(settings, sort_keys=True, default=str).encode())
-    return h.hexdigest()
+    return read_operator(path, key=key)
 
 
 # -- K = ρF as a lineax operator ------------------------------------------------------------------

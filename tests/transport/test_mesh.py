@@ -82,7 +82,7 @@ def test_save_load_roundtrip_and_key(tmp_path):
     x = jnp.asarray(np.random.default_rng(0).random((p.n, 3)))
     assert np.allclose(back.matmul(x), op.matmul(x))
     assert back.info["rays"] == op.info["rays"]
-    material = np.zeros(len(tri), int)
-    k = operator_key(tri, material, group, patch_size=1.5)
-    assert k == operator_key(tri.copy(), material, group, patch_size=1.5)
-    assert k != operator_key(tri, material, group, patch_size=0.5)
+    k = operator_key(tri, group, patch_size=1.5)
+    assert k == operator_key(tri.copy(), group.copy(), patch_size=1.5)
+    assert k != operator_key(tri, group, patch_size=0.5)
+    assert k != operator_key(tri, group[::-1].copy(), patch_size=1.5)
