@@ -9,6 +9,7 @@ name), ``_csv`` (file format), ``_photometric`` (V(λ)-weighted quantities). See
 ``docs/spectra.md``.
 """
 
+from ._colorimetry import cct_from_xyz, xyz_to_chromaticity, xyz_to_srgb
 from ._names import available_names
 from ._photometric import (
     K_M,
@@ -17,6 +18,14 @@ from ._photometric import (
     photopic_v,
     tristimulus,
     xyz_of_illuminance,
+)
+from ._sampling import (
+    SpectralSampling,
+    gauss_sampling,
+    photometric_normalisation,
+    reference_grid,
+    segment,
+    uniform_sampling,
 )
 from ._spectrum import KINDS, MAX_EXTRAPOLATION_NM, VISIBLE_NM, Kind, Spectrum
 
@@ -33,4 +42,13 @@ __all__ = [
     "luminous_reflectance",
     "tristimulus",
     "xyz_of_illuminance",
+    "SpectralSampling",
+    "segment",
+    "uniform_sampling",
+    "gauss_sampling",
+    "photometric_normalisation",
+    "reference_grid",
+    "xyz_to_chromaticity",
+    "cct_from_xyz",
+    "xyz_to_srgb",
 ]
