@@ -159,7 +159,9 @@ def _hats(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Piecewise-linear (trapezoid) basis of ``nodes`` at ``x``, constant beyond the ends."""
     m = nodes.size
     eye = np.eye(m)
-    return np.stack([np.interp(x, nodes, eye[i]) for i in range(m)]) if m > 1 else np.ones((1, x.size))
+    return (
+        np.stack([np.interp(x, nodes, eye[i]) for i in range(m)]) if m > 1 else np.ones((1, x.size))
+    )
 
 
 def _basis_at(kind: str, nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -492,7 +494,9 @@ def segment(
         return float(np.mean(de**4) ** 0.25)
 
     n = int(min(max_samples, dom_hi - dom_lo))
-    line_share = sorted(((share(iv), iv.peak[0]) for iv in ivs if iv.kind == "trapezoid"), reverse=True)
+    line_share = sorted(
+        ((share(iv), iv.peak[0]) for iv in ivs if iv.kind == "trapezoid"), reverse=True
+    )
     fixed = [p for sh, p in line_share if sh >= LINE_MIN_SHARE * float(np.sum(w))][: n // 2]
     free = n - len(fixed)
     edges = np.linspace(dom_lo, dom_hi, free + 1)
