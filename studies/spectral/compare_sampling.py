@@ -133,7 +133,9 @@ def tables(worst, chosen, samples, bounces=(1, 3)):
         for n in samples:
             for k in bounces:
                 vals = [
-                    v[0] for (l, nn, kk, mm), v in worst.items() if nn == n and kk == k and mm == m
+                    v[0]
+                    for (_lamp, nn, kk, mm), v in worst.items()
+                    if nn == n and kk == k and mm == m
                 ]
                 cells.append(f"{max(vals):.3f}")
         out.append(f"| {LABELS[m]} | " + " | ".join(cells) + " |")
@@ -141,7 +143,7 @@ def tables(worst, chosen, samples, bounces=(1, 3)):
         out.append(f"\n## n = {n} samples: worst (mean) ΔE00 over the 24 patches\n")
         out.append("| lamp | k | " + " | ".join(LABELS[m] for m in methods) + " | samples used |")
         out.append("|---|---:|" + "---:|" * len(methods) + "---:|")
-        for name in dict.fromkeys(l for (l, *_) in worst):
+        for name in dict.fromkeys(key[0] for key in worst):
             for k in bounces:
                 cells = []
                 best = min(worst[(name, n, k, m)][0] for m in methods if m in ("a", "b", "c", "d"))
