@@ -113,7 +113,7 @@ class SpectralSampling:
 
         The radiosity of a network whose luminaires share one spectrum E is B(λ) = E(λ)·g(λ),
         with g smooth (reflectances and their products). These weights fold E in:
-        ``H_ci = K_m Σ_λ c̄(λ) E(λ) ℓ_i(λ) / E(λ_i)``, so only g is interpolated : emission lines, however sharp and wherever they fall, are
+        ``H_ci = K_m Σ_λ c̄(λ) E(λ) ℓ_i(λ) / E(λ_i)``, so only g is interpolated: emission lines, however sharp and wherever they fall, are
         integrated exactly, and ``weights_v @ E(λ_i)`` is the exact 1 nm photometric integral
         of E. ℓ_i is the not-a-knot cubic-spline basis through the nodes (constant beyond the
         ends). Valid for radiosity from this spectrum only (one sampling per network spectrum,
