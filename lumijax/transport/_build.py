@@ -25,7 +25,7 @@ import numpy as np
 from ..mesh._partition import Partition
 from ..mesh._patches import Patches, _template
 from ._kernels import form_factor_point_triangle
-from ._lowrank import aca_block, clear_pairs, separated
+from ._lowrank import aca_block, clear_pairs, separated, unobstructed_pairs
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
 
 __all__ = ["FormFactorSettings", "build_operator"]
@@ -58,7 +58,8 @@ class FormFactorSettings:
     lowrank_tol: float = 1e-3
     """Relative Frobenius error of each compressed block."""
     lowrank_samples: int = 256
-    """Shadow rays sampled per candidate pair; any blocked one keeps the pair dense."""
+    """Only when the occluders are a bare ``RayCaster`` (no triangles for the exact hull test):
+    shadow rays sampled per candidate pair; any blocked one keeps the pair dense."""
     lowrank_max_fraction: float = 0.5
     """Keep a pair dense unless its factors take at most this fraction of the dense block."""
 
@@ -86,18 +87,22 @@ def _chunking(n: int, per_pair: int, max_bytes: int) -> tuple[int, int]:
     return chunk, steps * chunk
 
 
-def _compress(patches, part, s: FormFactorSettings, caster, diam, counters):
+def _compress(patches, part, s: FormFactorSettings, caster, triangles, diam, counters):
     """{pair index: (U, V)} for the far pairs that compress; the rest stay dense."""
     t0 = time.perf_counter()
     cand = np.flatnonzero(separated(patches, part, s.lowrank_eta, s.near_ratio, diam))
     out, ranks = {}, []
     counters.update(lowrank_candidates=len(cand), lowrank_mixed=0, lowrank_rank_cap=0)
     if len(cand):
-        t1 = time.perf_counter()
-        ok, rays = clear_pairs(patches, part, cand, caster, s.lowrank_samples, 8)
-        counters["ray_time"] += time.perf_counter() - t1
-        counters["rays"] += rays
-        counters["lowrank_sample_rays"] = rays
+        if caster is None:
+            ok = np.ones(len(cand), bool)
+        elif triangles is not None:
+            ok = unobstructed_pairs(part, cand, triangles)
+        else:
+            t1 = time.perf_counter()
+            ok, rays = clear_pairs(patches, part, cand, caster, s.lowrank_samples, 8)
+            counters["ray_time"] += time.perf_counter() - t1
+            counters["rays"] += rays
         counters["lowrank_mixed"] = int((~ok).sum())
         for k in cand[ok]:
             a, b = part.pairs[k]
@@ -149,7 +154,9 @@ def _contour_batched(q, n, tri) -> np.ndarray:
     out = np.empty(len(qf))
     for s in range(0, len(qf), _BATCH):
         m = min(_BATCH, len(qf) - s)
-        qp, tp, npd = np.zeros((_BATCH, 3)), np.zeros((_BATCH, 3, 3)), np.zeros((_BATCH, 3))
+        # three padded shapes (three compilations): small calls stay small
+        size = 1024 if m <= 1024 else 4096 if m <= 4096 else _BATCH
+        qp, tp, npd = np.zeros((size, 3)), np.zeros((size, 3, 3)), np.zeros((size, 3))
         qp[:m], tp[:m], npd[:m] = qf[s : s + m], tf[s : s + m], nf[s : s + m]
         out[s : s + m] = np.asarray(_contour_flat(qp, npd, tp))[:m]
     return out.reshape(npair, nq).mean(axis=1)
@@ -241,6 +248,7 @@ def build_operator(
     settings: FormFactorSettings | None = None,
     *,
     dtype=np.float32,
+    occluder_triangles=None,
 ) -> TransportOperator:
     """Compute the form factors of every visible block pair into a :class:`TransportOperator`.
 
@@ -255,19 +263,23 @@ def build_operator(
         Accuracy knobs, :class:`FormFactorSettings` (defaults meet the documented accuracy).
     dtype
         Storage of the blocks: float32 (default; BLAS speed, half the memory) or float64.
+    occluder_triangles
+        The triangles of ``occluders`` when that is a prebuilt ``RayCaster``: they let the
+        low-rank far field prove a block pair unshadowed geometrically instead of by sampling.
     """
     from ..scene._raycast import RayCaster
 
     s = settings or FormFactorSettings()
     caster = occluders
     if occluders is not None and not isinstance(occluders, RayCaster):
+        occluder_triangles = np.asarray(occluders, np.float64)
         caster = RayCaster(occluders)
     t_start = time.perf_counter()
     counters = dict(rays=0, ray_time=0.0, near_pairs=0)
     diam = patches.diameter
     sizes = part.sizes
     npatch = patches.n
-    lowrank = _compress(patches, part, s, caster, diam, counters) if s.lowrank else {}
+    lowrank = _compress(patches, part, s, caster, occluder_triangles, diam, counters) if s.lowrank else {}
     # Bucket every visible pair by its padded shape, and preallocate (no second copy).
     keys, lr_keys = {}, {}
     for k, (a, b) in enumerate(part.pairs):

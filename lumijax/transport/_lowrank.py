@@ -6,12 +6,18 @@ so every patch pair in it is a far pair of the point kernel). Over such a pair t
 far kernel ``A_i A_j cosθ_i cosθ_j / (d² (π d² + A_i + A_j))`` is smooth, so the block of
 ``G = A F`` has rapidly decaying singular values.
 
-Visibility is not smooth, so a candidate is compressed only when ``samples`` random
-centroid-to-centroid shadow rays between facing patches of the two blocks are **all clear**
-(then every entry's visibility is taken as 1, exactly as the dense path would compute it for
-every unblocked centroid ray). Any blocked sample, or fewer than ``min_facing`` facing samples,
-sends the pair to the dense path with its per-entry rays. A partial occluder that covers a
-fraction f of the pair is missed with probability (1 − f)^samples.
+Visibility is not smooth, so a candidate is compressed only when nothing can shadow it. With
+the occluding triangles at hand this is decided **geometrically and exactly** (conservatively):
+every segment between the two blocks lies in the convex hull of their bounding boxes, so if no
+triangle penetrates that hull (separating-axis test on the hull's faces and the triangle's
+plane; touching, as the blocks' own and coplanar neighbouring triangles do, does not count),
+every shadow ray of the pair is clear and every entry's visibility is 1, exactly as the dense
+path would compute it. Any penetrating triangle sends the pair to the dense path with its
+per-entry rays. When only a ray caster is available (no triangles), ``samples`` random
+centroid-to-centroid rays between facing patches must all be clear instead; a partial occluder
+covering a fraction f of the pair is then missed with probability (1 − f)^samples (measured:
+a 0.5 % shadow slipped through and cost 0.8 % of the pair's norm), which is why the geometric
+test is the default.
 
 Compression is adaptive cross approximation with partial pivoting (Bebendorf 2000), computed
 from kernel rows and columns only — k rows and k columns for rank k, never the m × n block —
@@ -24,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["block_spheres", "separated", "clear_pairs", "aca_block"]
+__all__ = ["block_spheres", "separated", "clear_pairs", "unobstructed_pairs", "aca_block"]
 
 
 def block_spheres(patches, part):
@@ -79,6 +85,53 @@ def clear_pairs(patches, part, pairs, caster, samples: int, min_facing: int, see
         need = min_facing if caster is not None else 1
         ok[s : s + step] = (n_facing >= need) & ~any_blocked
     return ok, rays
+
+
+def _box_corners(lo, hi):
+    k = np.array([[i, j, l] for i in (0, 1) for j in (0, 1) for l in (0, 1)], float)
+    return lo + k * (hi - lo)
+
+
+def unobstructed_pairs(part, pairs, triangles) -> np.ndarray:
+    """Per pair of ``pairs``: no triangle penetrates the convex hull of the two blocks' boxes.
+
+    Separating axes: the hull's face normals and the triangle's normal (edge × edge axes are
+    skipped, which can only report an intersection that is not there: conservative).
+    """
+    from scipy.spatial import ConvexHull
+    from scipy.spatial import QhullError
+
+    tri = np.asarray(triangles, np.float64)
+    ok = np.zeros(len(pairs), bool)
+    if not len(tri):
+        ok[:] = True
+        return ok
+    pts = tri.reshape(-1, 3)
+    tol = 1e-6 * max(float(np.max(pts.max(0) - pts.min(0))), 1.0)
+    tlo, thi = tri.min(axis=1), tri.max(axis=1)
+    tn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    tn /= np.maximum(np.linalg.norm(tn, axis=1, keepdims=True), 1e-300)
+    toff = -np.einsum("ij,ij->i", tn, tri[:, 0])
+    for q, k in enumerate(pairs):
+        a, b = part.pairs[k]
+        corners = np.concatenate([_box_corners(part.lo[a], part.hi[a]),
+                                  _box_corners(part.lo[b], part.hi[b])])
+        lo, hi = corners.min(0), corners.max(0)
+        near = np.flatnonzero(((tlo < hi - tol) & (thi > lo + tol)).all(axis=1))
+        if not len(near):
+            ok[q] = True
+            continue
+        try:
+            eq = ConvexHull(corners).equations  # (F, 4): n·x + d ≤ 0 inside
+        except QhullError:
+            continue  # degenerate hull: keep the pair dense
+        v = tri[near]  # (t, 3, 3)
+        face = np.einsum("tkc,fc->tkf", v, eq[:, :3]) + eq[:, 3]
+        sep = (face.min(axis=1) >= -tol).any(axis=1)  # the whole triangle outside some face
+        side = corners @ tn[near].T + toff[near]  # (16, t): hull on one side of the triangle
+        sep |= (side.min(axis=0) >= -tol) | (side.max(axis=0) <= tol)
+        ok[q] = bool(sep.all())
+    return ok
 
 
 def _kernel(c, n, a, C, N, A):

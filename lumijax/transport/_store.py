@@ -298,7 +298,7 @@ def cached_operator(
 
         caster = RayCaster(occ)
     part = partition(patches, **dataclasses.asdict(ps), occluders=caster)
-    op = build_operator(patches, part, caster, settings, dtype=dtype)
+    op = build_operator(patches, part, caster, settings, dtype=dtype, occluder_triangles=occ)
     try:
         write_operator(path, op, key=key)
     except OutputError as e:
