@@ -2,6 +2,11 @@
 
     python benchmarks/radiosity.py [--patches N] [--rooms R] [--networks 18] [--wavelengths 8]
     python benchmarks/radiosity.py --compare-methods    # evidence for the form-factor method
+    python benchmarks/radiosity.py --hall --patches 30000 [--compare-dense]   # low-rank far field
+
+The --hall scene is one empty 40 × 40 × 10 m hall (the case where nothing culls block pairs and
+low-rank far blocks pay off). Every run also reports the on-disk cache: miss (build + write)
+and hit (verify + load) times.
 
 The scene is R furnished rooms (6 × 5 × 3 m, inward boxes, each its own group, with a table and
 a cabinet inside to cast shadows), meshed to about N patches in all. Prints one table; the
@@ -63,6 +68,102 @@ def embree_raw_rate(caster, tri, n=2_000_000, seed=0):
     return n / (time.perf_counter() - t0)
 
 
+def build_hall():
+    import trimesh
+
+    m = trimesh.creation.box(extents=(40, 40, 10))
+    m.apply_translation([20, 20, 5])
+    m.invert()
+    tri = m.triangles
+    return tri, np.zeros(len(tri), int), np.zeros(len(tri), int)
+
+
+def cache_rows(p, tri, max_block, settings=None):
+    """Miss (partition + build + write) and hit (read + verify) times of cached_operator."""
+    import tempfile
+
+    from lumijax.mesh import PartitionSettings
+    from lumijax.transport import cached_operator
+
+    with tempfile.TemporaryDirectory() as d:
+        ps = PartitionSettings(max_block=max_block)
+        t0 = time.perf_counter()
+        op, hit = cached_operator(p, tri, settings, cache_dir=d, partition_settings=ps)
+        t_miss = time.perf_counter() - t0
+        size = sum(f.stat().st_size for f in __import__("pathlib").Path(d).iterdir())
+        t0 = time.perf_counter()
+        op2, hit2 = cached_operator(p, tri, settings, cache_dir=d, partition_settings=ps)
+        t_hit = time.perf_counter() - t0
+    assert not hit and hit2
+    return op2, [("cache", f"miss {t_miss:.1f} s (partition + build + write), hit {t_hit:.2f} s "
+                  f"(read + SHA-256 + load, no rays), file {size / 2**20:,.1f} MiB")]
+
+
+def hall(args):
+    import jax.numpy as jnp
+
+    from lumijax.mesh import mesh_patches, partition
+    from lumijax.solve import solve_radiosity
+    from lumijax.transport import FormFactorSettings, build_operator
+
+    tri, group, mat = build_hall()
+    ps = args.patch_size or patch_size_for(tri, args.patches)
+    p = mesh_patches(tri, mat, group, patch_size=ps)
+    part = partition(p, args.max_block, occluders=tri)
+    settings = FormFactorSettings(lowrank_eta=args.eta, lowrank_tol=args.tol)
+    t0 = time.perf_counter()
+    op, rows = cache_rows(p, tri, args.max_block, settings)
+    info = op.info
+    rows = [("scene", f"one 40 × 40 × 10 m hall, {p.n} patches (patch size {ps:.3f} m), "
+             f"{part.n_blocks} blocks, {len(part.pairs)} visible pairs")] + rows
+    ranks = f"rank mean {info['lowrank_rank_mean']:.1f}, max {info['lowrank_rank_max']}"
+    rows += [
+        ("low-rank pairs", f"{info['lowrank_pairs']} of {info['visible_pairs']} pairs "
+         f"({info['lowrank_candidates']} well separated at η = {args.eta}, "
+         f"{info['lowrank_mixed_visibility']} possibly shadowed, {info['lowrank_rank_cap']} "
+         f"over the rank cap), {ranks}, tol {args.tol}"),
+        ("compressed build", f"{info['build_time_s']:.1f} s (ACA {info['lowrank_time_s']:.1f} s)"),
+        ("operator bytes", f"{op.nbytes / 2**20:,.1f} MiB (dense part {op.dense_nbytes / 2**20:,.1f},"
+         f" low-rank part {op.lowrank_nbytes / 2**20:,.1f}); the compressed pairs would take "
+         f"{info['lowrank_entries'] / 2 * 4 / 2**20:,.1f} MiB dense (float32, unpadded)"),
+    ]
+    rng = np.random.default_rng(0)
+    cols = args.networks * args.wavelengths
+    x = jnp.asarray(rng.random((p.n, cols)), jnp.float32)
+
+    def timed(o):
+        o.matmul(x).block_until_ready()
+        t0 = time.perf_counter()
+        for _ in range(3):
+            y = o.matmul(x).block_until_ready()
+        return y, (time.perf_counter() - t0) / 3
+
+    y, t_mv = timed(op)
+    rows.append(("one product F·X", f"{t_mv * 1e3:.0f} ms ({cols} columns), compressed"))
+    rho = 0.5
+    sol = solve_radiosity(op, jnp.full(p.n, rho, jnp.float32), jnp.ones((p.n, 1), jnp.float32))
+    v = np.asarray(sol.value)
+    rows.append(("furnace ρ = 0.5", f"B/B_exact − 1: mean {v.mean() / 2 - 1:+.2e}, range "
+                 f"[{v.min() / 2 - 1:+.2e}, {v.max() / 2 - 1:+.2e}] (compressed)"))
+    if args.compare_dense:
+        t0 = time.perf_counter()
+        dense = build_operator(p, part, tri, FormFactorSettings(lowrank=False))
+        t_dense = time.perf_counter() - t0
+        yd, t_mvd = timed(dense)
+        err = float(jnp.linalg.norm(y - yd) / jnp.linalg.norm(yd))
+        solr = solve_radiosity(dense, jnp.full(p.n, rho, jnp.float32),
+                               jnp.ones((p.n, 1), jnp.float32))
+        dv = float(np.abs(v - np.asarray(solr.value)).max() / 2)
+        rows += [
+            ("dense build", f"{t_dense:.1f} s, {dense.nbytes / 2**20:,.1f} MiB"),
+            ("dense product F·X", f"{t_mvd * 1e3:.0f} ms"),
+            ("accuracy", f"‖F·X − F_dense·X‖/‖F_dense·X‖ = {err:.1e} (random X ≥ 0); furnace "
+             f"solution max |ΔB|/B = {dv:.1e}"),
+        ]
+    rows.append(("peak RSS", f"{_rss_gib():.1f} GiB"))
+    _table(rows)
+
+
 def copy_bandwidth(nbytes=1 << 29):
     a = np.ones(nbytes // 8)
     b = np.empty_like(a)
@@ -95,9 +196,10 @@ def run(args):
     part = partition(p, args.max_block, occluders=caster)
     t_part = time.perf_counter() - t0
     t0 = time.perf_counter()
-    op = build_operator(p, part, caster)
+    op = build_operator(p, part, caster, occluder_triangles=tri)
     t_build = time.perf_counter() - t0
     info = op.info
+    cache = cache_rows(p, tri, args.max_block)[1] if args.cache else []
     rays = info["rays"] + part.stats["occlusion_rays"]
     ray_rate = info["rays"] / max(info["ray_time_s"], 1e-9)
     rows += [
@@ -158,7 +260,7 @@ def run(args):
         ("memory bandwidth", f"{traffic / t_mv / 1e9:.1f} GB/s (blocks {op.nbytes / t_mv / 1e9:.1f} "
          f"GB/s + gathered/scattered columns) vs numpy copy {bw / 1e9:.1f} GB/s"),
         ("peak RSS", f"{_rss_gib():.1f} GiB"),
-    ]
+    ] + cache
     _table(rows)
 
 
@@ -257,9 +359,17 @@ def main():
     ap.add_argument("--rho-max", type=float, default=0.8)
     ap.add_argument("--method", default="bicgstab")
     ap.add_argument("--compare-methods", action="store_true")
+    ap.add_argument("--cache", action="store_true", help="rooms: also time cache miss/hit "
+                    "(a second build)")
+    ap.add_argument("--hall", action="store_true", help="one 40 × 40 × 10 m hall")
+    ap.add_argument("--compare-dense", action="store_true", help="--hall: also build dense")
+    ap.add_argument("--eta", type=float, default=1.5)
+    ap.add_argument("--tol", type=float, default=1e-3)
     args = ap.parse_args()
     if args.compare_methods:
         compare_methods()
+    elif args.hall:
+        hall(args)
     else:
         run(args)
 
