@@ -16,12 +16,12 @@ from lumijax.scene import _raycast
 from lumijax.transport import (
     FormFactorSettings,
     OperatorFileError,
+    _store,
     cache_path,
     cached_operator,
     load_operator,
     operator_key,
 )
-from lumijax.transport import _store
 
 
 def _room(dx=0.0):
