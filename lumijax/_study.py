@@ -10,14 +10,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import jax
 import numpy as np
 
 from .config import StudyConfig, load_config
-from .direct import direct_illuminance
+from .lighting import LightingSolution, SolverSettings, solve_lighting
 from .results import GridResult, Results
 from .scene import Scene, build_scene
 
-__all__ = ["Study", "load_study", "compute"]
+__all__ = ["Study", "load_study", "compute", "solver_settings"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,16 +61,36 @@ def load_study(path: str | Path) -> Study:
     return Study(cfg, scene, load_s=time.perf_counter() - t0)
 
 
+def solver_settings(study: Study, **overrides) -> SolverSettings:
+    """The study's ``[solver]`` table as :class:`~lumijax.lighting.SolverSettings`."""
+    c = study.config.solver
+    values = dict(
+        indirect=c.indirect, patch_size=c.patch_size, target_patches=c.target_patches,
+        max_block=c.max_block, method=c.method, tolerance=c.tolerance,
+        max_iterations=c.max_iterations, gather_rays=c.gather_rays, precision=c.precision,
+    )
+    values.update(overrides)
+    return SolverSettings(**values)
+
+
 def compute(
     study: Study,
     *,
     shadows: bool = True,
-    progress: Callable[[int, int], None] | None = None,
+    indirect: bool | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
 ) -> Results:
-    """Light the study: illuminance on every grid, per network, at the config's dimmers.
+    """Light the study: direct and inter-reflected illuminance on every grid, per network.
 
-    This first version computes direct light (with shadows, extended and area sources);
-    inter-reflected light is added by the radiosity solve.
+    Parameters
+    ----------
+    shadows
+        Cast shadow rays (default). ``False`` ignores every obstruction and inter-reflection:
+        the luminaires' photometry alone.
+    indirect
+        Override the config's ``[solver] indirect``.
+    progress
+        Called as ``progress(stage, done, total)``.
     """
     sc = study.scene
     t0 = time.perf_counter()
@@ -79,8 +100,17 @@ def compute(
         normals = np.concatenate([g.normals for g in grids])
     else:
         points = normals = np.zeros((0, 3))
-    direct = direct_illuminance(sc, points, normals, shadows=shadows, progress=progress)
-    t1 = time.perf_counter()
+    overrides = {} if indirect is None else {"indirect": indirect}
+    if not shadows:
+        overrides["indirect"] = False
+    settings = solver_settings(study, **overrides)
+    if settings.precision == "float64":
+        jax.config.update("jax_enable_x64", True)
+    if shadows:
+        lighting = solve_lighting(sc, points, normals, settings, progress=progress)
+    else:
+        lighting = _unshadowed(sc, points, normals, progress)
+    total = lighting.point_total
     names = sc.network_names
     dimmers = sc.dimmers
     out: dict[str, GridResult] = {}
@@ -90,8 +120,8 @@ def compute(
         start += len(g)
         out[g.name] = GridResult(
             name=g.name, points=g.points, normals=g.normals, networks=names,
-            by_network_lux=direct.by_network[:, sl], dimmers=dimmers, shape=g.shape,
-            target_lux=g.target_lux,
+            by_network_lux=total[:, sl], dimmers=dimmers, shape=g.shape,
+            target_lux=g.target_lux, direct_by_network_lux=lighting.point_direct[:, sl],
         )
     flux = sc.network_flux_lm()
     networks = {
@@ -103,13 +133,28 @@ def compute(
         }
         for n in sc.networks
     }
-    timing = {
-        "load": study.load_s,
-        "direct": t1 - t0,
-        "direct_kernel": direct.timing_s.get("kernel", 0.0),
-        "shadow_rays": direct.timing_s.get("shadow_rays", 0.0),
-    }
+    timing = {"load": study.load_s, **lighting.stats.get("timing_s", {}),
+              "total": time.perf_counter() - t0}
+    counts = {k: v for k, v in lighting.stats.items() if isinstance(v, int)}
+    counts["grid_points"] = int(len(points))
+    solver = {k: v for k, v in lighting.stats.items()
+              if k in ("patch_size_m", "iterations", "residual", "escaped_fraction")}
     return Results(
-        study=sc.name, grids=out, networks=networks, timing_s=timing,
-        counts={"shadow_rays": direct.shadow_rays, "grid_points": int(len(points))},
+        study=sc.name, grids=out, networks=networks, timing_s=timing, counts=counts,
+        solver=solver, lighting=lighting,
+    )
+
+
+def _unshadowed(scene, points, normals, progress) -> LightingSolution:
+    """Direct light with no obstruction at all (``shadows=False``)."""
+    from .direct import direct_illuminance
+
+    report = None if progress is None else (lambda d, t: progress("direct light", d, t))
+    d = direct_illuminance(scene, points, normals, shadows=False, progress=report)
+    k = len(scene.networks)
+    return LightingSolution(
+        scene=scene, points=points, normals=normals, patches=None, transport=None, gather=None,
+        rho=None, patch_direct=np.zeros((k, 0)), radiosity=np.zeros((k, 0)),
+        point_direct=d.by_network, point_indirect=np.zeros_like(d.by_network),
+        stats={"shadow_rays": 0},
     )

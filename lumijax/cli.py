@@ -36,8 +36,8 @@ def _progress_bar(console, description: str):
     )
     task = progress.add_task(description, total=None)
 
-    def update(done: int, total: int) -> None:
-        progress.update(task, completed=done, total=total)
+    def update(stage: str, done: int, total: int) -> None:
+        progress.update(task, description=stage, completed=done, total=total)
 
     return progress, update
 
@@ -63,7 +63,7 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console) -> in
 
     t0 = time.perf_counter()
     study = load_study(config)
-    progress, update = _progress_bar(console, "direct light")
+    progress, update = _progress_bar(console, "lighting")
     with progress:
         results = compute(study, shadows=shadows, progress=update)
     paths = write_results(results, out, images=images)

@@ -15,6 +15,7 @@ from ._schema import (
     PlaneGrid as PlaneGrid,
     PointsGrid as PointsGrid,
     RectangleGeometry as RectangleGeometry,
+    SolverConfig as SolverConfig,
     StudyConfig as StudyConfig,
     StudyInfo as StudyInfo,
 )

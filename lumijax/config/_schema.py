@@ -41,6 +41,7 @@ __all__ = [
     "NetworkConfig",
     "PlaneGrid",
     "PointsGrid",
+    "SolverConfig",
 ]
 
 
@@ -322,6 +323,21 @@ class PointsGrid(_GridBase):
 Grid = Annotated[PlaneGrid | PointsGrid, Field(discriminator="kind")]
 
 
+class SolverConfig(_Model):
+    """``[solver]``: how inter-reflected light is computed (docs/config.md, docs/radiosity.md)."""
+
+    indirect: bool = True
+    patch_size: Positive | None = Field(None, description="m; default: automatic")
+    target_patches: Annotated[int, Field(ge=10, le=10_000_000)] = 4_000
+    max_block: Annotated[int, Field(ge=16, le=8192)] = 1024
+    method: Literal["bicgstab", "gmres", "southwell", "jacobi"] = "bicgstab"
+    tolerance: Annotated[float, Field(gt=0, lt=1)] | None = None
+    max_iterations: Annotated[int, Field(ge=1)] = 1000
+    gather_rays: Annotated[int, Field(ge=16, le=65536)] = 512
+    precision: Literal["float32", "float64"] = "float32"
+    cache: bool = True
+
+
 class StudyConfig(_Model):
     """A whole study: the root of the TOML file."""
 
@@ -333,6 +349,7 @@ class StudyConfig(_Model):
     luminaires: list[Luminaire] = []
     networks: dict[Name, NetworkConfig] = {}
     grids: list[Grid] = []
+    solver: SolverConfig = SolverConfig()
     _source: Path | None = PrivateAttr(None)
 
     @property

@@ -59,7 +59,7 @@ def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np
     def count(size: float) -> int:
         if size <= 0:
             return 1
-        return int(min(_MAX_SUB, max(1, math.ceil(5.0 * size / max(distance_m, 1e-9)))))
+        return int(min(_MAX_SUB, max(1, math.ceil(5.0 * size / max(distance_m, 1e-9) - 1e-9))))
 
     nl, nw = count(length_m), count(width_m)
     xs = ((np.arange(nl) + 0.5) / nl - 0.5) * length_m
@@ -137,12 +137,13 @@ def direct_illuminance(
     if n_pts == 0:
         return result
     caster = scene.raycaster if shadows and len(scene.triangles) else None
-    batches = _point_source_batches(scene, points)
+    batches = _point_source_batches(scene)
     total = sum(len(b[1]) for b in batches) + len(scene.area_sources)
     done = 0
     pts_j, nrm_j = jnp.asarray(points), jnp.asarray(normals)
     pts32, nrm32 = points.astype(np.float32), normals.astype(np.float32)
-    for phot_name, pos, rot, scale, owner in batches:
+    for phot_name, pos, rot, scale, owner, centre, d_lo, d_hi in batches:
+        banded = bool(np.any(d_lo > 0) or np.any(np.isfinite(d_hi)))
         dist = scene.photometries[phot_name].distribution
         cos_support = support_cosine(dist)
         axis = -rot[:, :, 2]  # world direction of each source's photometric axis (local −z)
@@ -161,7 +162,12 @@ def direct_illuminance(
             facing = np.einsum("lpk,pk->lp", d, nrm32) < 0
             along = np.einsum("lpk,lk->lp", d, axis[sl].astype(np.float32))
             inside = along >= cos_support * np.sqrt(np.einsum("lpk,lpk->lp", d, d)) - 1e-6
-            i, j = np.nonzero(facing & inside)
+            mask = facing & inside
+            if banded:  # sub-sources apply only at the distances their subdivision is for
+                dc = pts32[None, :, :] - centre[sl, None, :].astype(np.float32)
+                rc = np.sqrt(np.einsum("lpk,lpk->lp", dc, dc))
+                mask &= (rc >= d_lo[sl, None]) & (rc < d_hi[sl, None])
+            i, j = np.nonzero(mask)
             result.timing_s["cull"] += time.perf_counter() - t0
             pending.append(((i + c0).astype(np.int32), j.astype(np.int32)))
             pending_n += len(i)
@@ -231,48 +237,80 @@ def _evaluate_pairs(batch, src, rcv, pts_j, nrm_j, points, caster, out, result) 
         out.reshape(-1)[:] += np.bincount(flat, weights=e, minlength=out.size)
 
 
-def _point_source_batches(scene, points):
-    """Sources grouped by photometry: (name, positions, rotations, scales, network index)."""
-    from scipy.spatial import cKDTree
+def _bands(size: float) -> list[tuple[int, float, float]]:
+    """Subdivision levels of an opening of largest side ``size`` (m): ``(pieces, d_min, d_max)``.
 
+    A receiver at distance d from the centre uses the first power of two n with
+    size/n ≤ d/5 (the 5× rule per piece), capped at ``_MAX_SUB``: each receiver pays only for
+    the subdivision its own distance needs.
+    """
+    out, n, hi = [], 1, np.inf
+    while True:
+        lo = 5.0 * size / n
+        if n >= _MAX_SUB:
+            out.append((n, 0.0, hi))
+            return out
+        out.append((n, lo, hi))
+        n, hi = 2 * n, lo
+
+
+def _point_source_batches(scene):
+    """Point sources grouped by photometry: positions, rotations, scales, network index, and
+    the centre and distance band in which each source (or sub-source) applies."""
     net_index = {n.name: k for k, n in enumerate(scene.networks)}
-    tree = None
     groups: dict[str, list] = {}
     for lum in scene.luminaires:
         phot = scene.photometries[lum.photometry]
         rot = lum.rotation
         length, width = phot.opening.length_m, phot.opening.width_m
-        if max(length, width) > 0:
-            if tree is None:
-                tree = cKDTree(points)
-            nearest = float(tree.query(lum.position)[0])
-            offsets = sub_source_offsets(length, width, nearest)
-        else:
-            offsets = np.zeros((1, 3))
-        pos = lum.position + offsets @ rot.T
-        g = groups.setdefault(lum.photometry, [[], [], [], []])
-        g[0].append(pos)
-        g[1].append(np.broadcast_to(rot, (len(pos), 3, 3)))
-        g[2].append(np.full(len(pos), lum.scale / len(pos)))
-        g[3].append(np.full(len(pos), net_index[lum.network]))
-    return [
-        (name, np.concatenate(p), np.concatenate(r), np.concatenate(s), np.concatenate(o))
-        for name, (p, r, s, o) in groups.items()
-    ]
+        size = max(length, width)
+        # bands are on the distance to the opening, ≥ distance to its centre − half-diagonal
+        half = 0.5 * float(np.hypot(length, width))
+        bands = [(n, lo + half if lo > 0 else 0.0, hi + half) for n, lo, hi in _bands(size)] \
+            if size > 0 else [(1, 0.0, np.inf)]
+        g = groups.setdefault(lum.photometry, [[] for _ in range(7)])
+        for n, lo, hi in bands:
+            offsets = np.zeros((1, 3)) if n == 1 else sub_source_offsets(
+                length, width, 5.0 * size / n)
+            m = len(offsets)
+            g[0].append(lum.position + offsets @ rot.T)
+            g[1].append(np.broadcast_to(rot, (m, 3, 3)))
+            g[2].append(np.full(m, lum.scale / m))
+            g[3].append(np.full(m, net_index[lum.network]))
+            g[4].append(np.broadcast_to(lum.position, (m, 3)))
+            g[5].append(np.full(m, lo))
+            g[6].append(np.full(m, hi))
+    return [(name, *(np.concatenate(a) for a in arrays)) for name, arrays in groups.items()]
 
 
 def _area_illuminance(area, points, normals, caster, timing):
-    """Illuminance from one Lambertian rectangle: M·Σ_s F_s·V_s over its sub-rectangles."""
-    # distance from each point to the rectangle, for the 5x subdivision rule
+    """Illuminance from one Lambertian rectangle: M·Σ_s F_s·V_s over its sub-rectangles.
+
+    Unshadowed, the sum is exact for any subdivision (Lambert's contour integral per piece);
+    the subdivision only sets how finely shadows are resolved, so each receiver gets the
+    pieces its distance needs (the 5× rule, in distance bands).
+    """
     rel = points - area.origin
     uu, vv = area.u @ area.u, area.v @ area.v
     s = np.clip(rel @ area.u / uu, 0, 1)
     t = np.clip(rel @ area.v / vv, 0, 1)
-    nearest = float(np.min(np.linalg.norm(
-        area.origin + s[:, None] * area.u + t[:, None] * area.v - points, axis=1)))
-    nearest = max(nearest, 1e-6)
-    nu = int(min(_MAX_SUB, max(1, math.ceil(5 * np.sqrt(uu) / nearest))))
-    nv = int(min(_MAX_SUB, max(1, math.ceil(5 * np.sqrt(vv) / nearest))))
+    dist = np.linalg.norm(area.origin + s[:, None] * area.u + t[:, None] * area.v - points, axis=1)
+    size = float(np.sqrt(max(uu, vv)))
+    out = np.zeros(len(points))
+    rays = 0
+    for n, lo, hi in _bands(size):
+        sel = np.flatnonzero((dist >= lo) & (dist < hi))
+        if not len(sel):
+            continue
+        nu = max(1, math.ceil(n * np.sqrt(uu) / size - 1e-9))
+        nv = max(1, math.ceil(n * np.sqrt(vv) / size - 1e-9))
+        e, r = _area_band(area, nu, nv, points[sel], normals[sel], caster, timing)
+        out[sel] = e
+        rays += r
+    return out, rays
+
+
+def _area_band(area, nu, nv, points, normals, caster, timing):
     a, b = np.meshgrid(np.arange(nu) / nu, np.arange(nv) / nv, indexing="ij")
     a, b = a.ravel(), b.ravel()
     du, dv = area.u / nu, area.v / nv
@@ -283,7 +321,6 @@ def _area_illuminance(area, points, normals, caster, timing):
     offs = np.array([[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]])
     samples = base[:, None, :] + offs[None, :, 0, None] * du + offs[None, :, 1, None] * dv
     qn = np.broadcast_to(area.normal, (len(quads), 3))
-
     out = np.zeros(len(points))
     rays = 0
     chunk = max(1, _PAIRS_PER_CALL // len(quads))

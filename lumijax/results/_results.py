@@ -41,6 +41,7 @@ class GridResult:
     dimmers: Float[np.ndarray, " net"]
     shape: tuple[int, int] | None = None
     target_lux: float | None = None
+    direct_by_network_lux: Float[np.ndarray, "net points"] | None = None
 
     @property
     def illuminance_lux(self) -> Float[np.ndarray, " points"]:
@@ -53,6 +54,12 @@ class GridResult:
         if d.shape != (len(self.networks),):
             raise ValueError(f"expected {len(self.networks)} dimmers, got shape {d.shape}")
         return d @ self.by_network_lux
+
+    def at_dimmers_direct(self, dimmers) -> Float[np.ndarray, " points"]:
+        """The direct component alone (lx) at a dimmer vector."""
+        direct = self.by_network_lux if self.direct_by_network_lux is None else (
+            self.direct_by_network_lux)
+        return np.asarray(dimmers, np.float64) @ direct
 
     @property
     def stats(self) -> dict[str, float]:
@@ -68,6 +75,8 @@ class GridResult:
             },
             "stats": self.stats,
         }
+        if self.direct_by_network_lux is not None:
+            out["direct_lux"] = self.at_dimmers_direct(self.dimmers).tolist()
         if self.shape is not None:
             out["shape"] = list(self.shape)
         if self.target_lux is not None:
@@ -84,6 +93,8 @@ class Results:
     networks: dict[str, dict[str, Any]]
     timing_s: dict[str, float] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=dict)
+    solver: dict[str, Any] = field(default_factory=dict)
+    lighting: Any = field(default=None, repr=False)
 
     def __getitem__(self, grid: str) -> GridResult:
         return self.grids[grid]
@@ -98,4 +109,5 @@ class Results:
             "networks": self.networks,
             "timing_s": self.timing_s,
             "counts": self.counts,
+            "solver": self.solver,
         }

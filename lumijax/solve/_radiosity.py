@@ -179,8 +179,17 @@ def _solve(transport, rho, b0, method, rtol, max_steps, restart):
         else:
             solver = lx.BiCGStab(rtol=0.0, atol=rtol, max_steps=max_steps)
         system = lx.IdentityLinearOperator(struct) - op
-        sol = lx.linear_solve(system, vec, solver, throw=False)
-        x, result, steps = sol.value, sol.result, sol.stats["num_steps"]
+        # Start from two Neumann terms, y0 = B₀ + ρF·B₀ (exact where F = 0), and solve for the
+        # correction. lineax does not test a starting residual, so an exact start would break
+        # the Krylov recurrence (0/0): such columns keep a zero correction, and the residual
+        # check below judges the result. (Passing y0 as a lineax option would not
+        # differentiate.)
+        y0 = vec + op.mv(vec)
+        rhs = vec - (y0 - op.mv(y0))
+        sol = lx.linear_solve(system, rhs, solver, throw=False)
+        corr, result, steps = sol.value, sol.result, sol.stats["num_steps"]
+        finite = jnp.all(jnp.isfinite(corr), axis=0, keepdims=True)
+        x = y0 + jnp.where(finite, corr, 0.0)
         if method == "gmres":
             # the first lineax step only forms the residual; each later one is a restart cycle
             iterations = 1 + (steps - 1) * (restart + 1)
@@ -195,11 +204,10 @@ def _solve(transport, rho, b0, method, rtol, max_steps, restart):
         stats = {"shots": shots}
     b = x * scale
     residual = _residual(op, b0, b)
-    # lineax flags "breakdown" when a Krylov recurrence hits an exactly converged residual (a
-    # scene with few distinct eigenvalues, like a sphere); our own residual decides then.
-    result = lx.RESULTS.where(
-        (result == lx.RESULTS.breakdown) & (residual <= rtol), lx.RESULTS.successful, result
-    )
+    # lineax flags "breakdown" or "non-finite" when a Krylov recurrence meets an exactly
+    # converged residual (a sphere's few distinct eigenvalues; F = 0); the true residual of
+    # the returned B decides.
+    result = lx.RESULTS.where(residual <= rtol, lx.RESULTS.successful, result)
     return b, jnp.asarray(iterations), residual, result, escaped_fraction(transport, b), stats
 def _raise_if_failed(sol: RadiositySolution, method: str, rtol: float) -> RadiositySolution:
     failed = (sol.result != lx.RESULTS.successful) | (sol.residual > 10 * rtol)

@@ -88,7 +88,7 @@ def clear_pairs(patches, part, pairs, caster, samples: int, min_facing: int, see
 
 
 def _box_corners(lo, hi):
-    k = np.array([[i, j, l] for i in (0, 1) for j in (0, 1) for l in (0, 1)], float)
+    k = np.array([[i, j, m] for i in (0, 1) for j in (0, 1) for m in (0, 1)], float)
     return lo + k * (hi - lo)
 
 
@@ -98,8 +98,7 @@ def unobstructed_pairs(part, pairs, triangles) -> np.ndarray:
     Separating axes: the hull's face normals and the triangle's normal (edge × edge axes are
     skipped, which can only report an intersection that is not there: conservative).
     """
-    from scipy.spatial import ConvexHull
-    from scipy.spatial import QhullError
+    from scipy.spatial import ConvexHull, QhullError
 
     tri = np.asarray(triangles, np.float64)
     ok = np.zeros(len(pairs), bool)

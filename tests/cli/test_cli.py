@@ -15,6 +15,8 @@ from lumijax.cli import main
 STUDY = """
 [study]
 name = "cli room"
+[solver]
+indirect = false  # network b is checked against a direct-only closed form below
 [materials.wall]
 reflectance = 0.5
 [photometry.iso]
@@ -72,7 +74,7 @@ def test_run_writes_the_documented_contract(write_study, tmp_path, capsys):
                                rtol=1e-6)
     assert res["networks"]["a"] == {"dimmer": 0.5, "luminaires": ["A1"],
                                     "flux_lm": pytest.approx(2000, rel=1e-4)}
-    assert {"load", "direct"} <= set(res["timing_s"])
+    assert {"load", "direct_points", "total"} <= set(res["timing_s"])
     with open(out / "grids" / "floor.csv") as f:
         rows = list(csv.DictReader(f))
     assert list(rows[0]) == ["x", "y", "z", "lux"] and len(rows) == 48
@@ -97,7 +99,7 @@ def test_bad_config_is_one_line_without_traceback(write_study, tmp_path, capsys)
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 1
     err = capsys.readouterr().err
-    assert err.startswith(f"lumijax: error: {cfg}:10: networks.a.dimmer:")
+    assert err.startswith(f"lumijax: error: {cfg}:12: networks.a.dimmer:")
     assert "Traceback" not in err and err.count("\n") == 1
     assert not out.exists() or not any(out.iterdir())
 

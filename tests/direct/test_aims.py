@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from lumijax import compute, load_study
+import lumijax
+from lumijax import load_study
 from lumijax.direct import point_illuminance
 from lumijax.scene import aim_rotation
+
+# these tests check direct light against closed forms: inter-reflection off
+compute = partial(lumijax.compute, indirect=False)
 
 BEGA = "lx_Testlamp_Isym1_007cfb11e343e2f42e3b476be4ab684e.ies"  # rotationally symmetric
 ERCO = "lx_Testlamp_Isym2_theta180+_erco_33499000_1xqt32_230w.IES"  # asymmetric wall-washer

@@ -6,10 +6,16 @@ lumijax.
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import pytest
 
-from lumijax import compute, load_study
+import lumijax
+from lumijax import load_study
+
+# these tests check direct light against closed forms: inter-reflection off
+compute = partial(lumijax.compute, indirect=False)
 
 FLUX = 5000.0
 

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import jax.numpy as jnp
 import numpy as np
 
-from lumijax import compute, load_study
+import lumijax
+from lumijax import load_study
 from lumijax.direct import point_illuminance, sub_source_offsets
+
+# these tests check direct light against closed forms: inter-reflection off
+compute = partial(lumijax.compute, indirect=False)
 
 BAR = "lx_Testlamp_Isym4_43cef5d76a391dd85c41d4d09d68600d.ldt"  # 1.12 m linear LED luminaire
 

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import pytest
 
-from lumijax import compute, load_study
+import lumijax
+from lumijax import load_study
+
+# these tests check direct light against closed forms: inter-reflection off
+compute = partial(lumijax.compute, indirect=False)
 
 ISO = 4000.0  # lm
 

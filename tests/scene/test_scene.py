@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import pytest
 import trimesh
 
-from lumijax import GeometryError, compute, load_study
+import lumijax
+from lumijax import GeometryError, load_study
 from lumijax.config import load_config
 from lumijax.scene import Frame, resolve_group_frames, rotation_xyz
+
+# these tests check direct light against closed forms: inter-reflection off
+compute = partial(lumijax.compute, indirect=False)
 
 HEAD = """
 [materials.m]

@@ -29,7 +29,6 @@ def _colour_xyz(emission: Spectrum, reflectance: Spectrum | None = None, k: int 
     """colour-science's own 1 nm integration of E·ρ^k (linear interpolation, lumijax's
     extrapolation), absolute: K_m Σ c̄ E ρ^k Δλ."""
     import colour
-
     from colour.algebra import Extrapolator, LinearInterpolator
 
     cmfs = colour.MSDS_CMFS[CMFS]

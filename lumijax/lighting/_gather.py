@@ -1,0 +1,156 @@
+"""Gathering inter-reflected light from the patches onto calculation points.
+
+A calculation point in free space (a workplane, a facade grid) receives from every patch it
+sees: ``E_ind(p) = ∫ L(ω) cos θ dω`` with the patches' luminance ``L = B/π``. Sampling the
+hemisphere with cosine-weighted directions turns this into a mean: ``E_ind(p) ≈ (1/N) Σ B(hit)``.
+The rays are cast once; the result is a fixed sparse linear map ``G`` from patch radiosity to
+point illuminance, so gathering for another dimmer setting, another network or inside the
+optimiser's gradient is a sparse product, never a ray.
+
+Directions are a stratified (Fibonacci-lattice) cosine-weighted set, turned by a random
+rotation per point so that neighbouring points do not share a pattern; the seed is fixed, so
+results are reproducible.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, Int
+
+__all__ = ["GatherOperator", "build_gather"]
+
+
+@dataclass(frozen=True)
+class GatherOperator:
+    """Sparse map from patch radiosity (lm/m²) to point illuminance (lx): ``E = G @ B``.
+
+    ``weight[k]`` links point ``point[k]`` to patch ``patch[k]``; the weights of one point sum
+    to the fraction of its hemisphere covered by patches (1 inside a closed room; less where
+    the point sees the sky).
+    """
+
+    n_points: int
+    n_patches: int
+    point: Int[np.ndarray, " links"]
+    patch: Int[np.ndarray, " links"]
+    weight: Float[np.ndarray, " links"]
+
+    def __call__(self, b: Float[Array, "patches ..."]) -> Float[Array, "points ..."]:
+        """Illuminance (lx) at the points from patch radiosity ``b`` (any trailing axes)."""
+        b = jnp.asarray(b)
+        contrib = b[jnp.asarray(self.patch)] * jnp.asarray(self.weight, b.dtype).reshape(
+            (-1,) + (1,) * (b.ndim - 1)
+        )
+        return jax.ops.segment_sum(contrib, jnp.asarray(self.point), num_segments=self.n_points)
+
+    @property
+    def coverage(self) -> Float[np.ndarray, " points"]:
+        """Fraction of each point's (cosine-weighted) hemisphere that sees a patch."""
+        return np.bincount(self.point, weights=self.weight, minlength=self.n_points)
+
+
+def _cosine_directions(n: int) -> Float[np.ndarray, "n 3"]:
+    """``n`` stratified cosine-weighted directions about +z (Fibonacci lattice on the disk)."""
+    k = np.arange(n) + 0.5
+    r = np.sqrt(k / n)  # uniform on the unit disk → cosine-weighted after projecting up
+    phi = k * np.pi * (3.0 - np.sqrt(5.0))
+    x, y = r * np.cos(phi), r * np.sin(phi)
+    return np.stack([x, y, np.sqrt(np.maximum(0.0, 1.0 - x * x - y * y))], axis=1)
+
+
+def _frames(normals: Float[np.ndarray, "p 3"], rng) -> Float[np.ndarray, "p 3 3"]:
+    """Orthonormal frames with z along each normal and a random turn about it."""
+    n = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    t = np.cross(helper, n)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(n, t)
+    ang = rng.uniform(0, 2 * np.pi, size=len(n))[:, None]
+    t, b = np.cos(ang) * t + np.sin(ang) * b, -np.sin(ang) * t + np.cos(ang) * b
+    return np.stack([t, b, n], axis=2)  # columns: world = frame @ local
+
+
+def build_gather(
+    points: Float[np.ndarray, "points 3"],
+    normals: Float[np.ndarray, "points 3"],
+    patches,
+    caster,
+    *,
+    rays: int = 512,
+    seed: int = 0,
+    chunk: int = 4096,
+) -> GatherOperator:
+    """Cast ``rays`` cosine-weighted rays from each point and record which patch each hits.
+
+    Parameters
+    ----------
+    points, normals
+        Calculation points (m) and the normals of their measuring planes.
+    patches
+        :class:`lumijax.mesh.Patches` of the scene.
+    caster
+        The scene's :class:`lumijax.scene.RayCaster` (over the same triangles the patches
+        subdivide).
+    rays
+        Rays per point; the statistical error of a smooth field falls like 1/rays for this
+        stratified set, about 1 % at 512.
+    """
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, np.float64)
+    rng = np.random.default_rng(seed)
+    local = _cosine_directions(rays)
+    tree = cKDTree(patches.centroid)
+    src_tri = np.asarray(patches.source_triangle)
+    tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
+    tri_normals[src_tri] = patches.normal
+    rows, cols = [], []
+    for s in range(0, len(points), chunk):
+        p = points[s : s + chunk]
+        frames = _frames(np.asarray(normals[s : s + chunk], np.float64), rng)
+        dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
+        origins = np.repeat(p, rays, axis=0)
+        tri, dist = caster.first_hit(origins, dirs)
+        hit = tri >= 0
+        # surfaces are one-sided: a ray meeting a patch's back sees no light (it is still blocked)
+        hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
+        hit_points = origins[hit] + dirs[hit] * dist[hit, None]
+        patch = _patch_of_hits(tree, src_tri, hit_points, tri[hit])
+        rows.append(np.repeat(np.arange(s, s + len(p)), rays)[hit])
+        cols.append(patch)
+    point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+    patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)
+    # merge repeated (point, patch) links: fewer gathers per product
+    key = point_idx.astype(np.int64) * patches.n + patch_idx
+    uniq, counts = np.unique(key, return_counts=True)
+    return GatherOperator(
+        n_points=len(points),
+        n_patches=patches.n,
+        point=(uniq // patches.n).astype(np.int32),
+        patch=(uniq % patches.n).astype(np.int32),
+        weight=counts / rays,
+    )
+
+
+def _patch_of_hits(tree, src_tri, hit_points, hit_tri, k: int = 16):
+    """The patch holding each hit: the nearest patch centroid cut from the hit triangle."""
+    if not len(hit_points):
+        return np.zeros(0, np.int64)
+    k = min(k, len(src_tri))
+    _, idx = tree.query(hit_points, k=k)
+    idx = idx.reshape(len(hit_points), k)
+    same = src_tri[idx] == hit_tri[:, None]
+    first = np.argmax(same, axis=1)
+    found = same[np.arange(len(idx)), first]
+    out = idx[np.arange(len(idx)), first]
+    if not found.all():  # a huge triangle cut into many patches: search its own patches
+        lo = np.searchsorted(src_tri, hit_tri, side="left")  # a triangle's patches are contiguous
+        hi = np.searchsorted(src_tri, hit_tri, side="right")
+        for i in np.flatnonzero(~found):
+            d = np.linalg.norm(tree.data[lo[i]:hi[i]] - hit_points[i], axis=1)
+            out[i] = lo[i] + int(np.argmin(d))
+    return out

@@ -1,0 +1,172 @@
+"""Inter-reflection through the whole pipeline (config → scene → patches → solve → gather),
+against the exact enclosure identities of shared/reference §9."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import trimesh
+
+import lumijax
+from lumijax import LumijaxWarning, load_study
+from lumijax.lighting import solve_lighting
+
+FLUX = 10_000.0
+
+
+def _sphere_study(write_study, tmp_path, rho, extra=""):
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=2.0)
+    sphere.invert()  # seen from inside: normals inward
+    sphere.export(tmp_path / "sphere.ply")
+    return write_study(f"""
+        [materials.wall]
+        reflectance = {rho}
+        [photometry.iso]
+        kind = "isotropic"
+        flux_lm = {FLUX}
+        [[geometry]]
+        kind = "mesh"
+        file = "sphere.ply"
+        material = "wall"
+        [[luminaires]]
+        name = "L"
+        photometry = "iso"
+        position = [0, 0, 0]
+        network = "n"
+        [[grids]]
+        name = "inside"
+        kind = "points"
+        points = [[0.5, 0.3, -0.2], [-1.0, 0.4, 0.8], [0.2, -1.2, 0.1], [0.0, 0.0, 1.2]]
+        normals = [[0, 0, 1], [1, 0, 0], [0.3, 0.5, -0.8], [0, -1, 0]]
+        [solver]
+        patch_size = 0.3
+        gather_rays = 2048
+        {extra}
+    """), sphere.area
+
+
+@pytest.mark.parametrize("rho", [0.2, 0.5, 0.8])
+def test_integrating_sphere(write_study, tmp_path, rho):
+    """Mean irradiance on the walls Φ/(A(1−ρ)); indirect illuminance ρΦ/(A(1−ρ)) everywhere."""
+    path, area = _sphere_study(write_study, tmp_path, rho)
+    res = lumijax.compute(load_study(path))
+    sol = res.lighting
+    e_wall = sol.patch_illuminance()[0]
+    mean = np.sum(e_wall * sol.patches.area) / np.sum(sol.patches.area)
+    np.testing.assert_allclose(mean, FLUX / (area * (1 - rho)), rtol=0.01)
+    np.testing.assert_allclose(e_wall, FLUX / (area * (1 - rho)), rtol=0.03)
+    g = res["inside"]
+    indirect = g.illuminance_lux - g.at_dimmers_direct(g.dimmers)
+    np.testing.assert_allclose(indirect, rho * FLUX / (area * (1 - rho)), rtol=0.03)
+    # the direct part stays the closed form I cosθ / d²
+    d = g.points
+    cos = np.einsum("ij,ij->i", -d / np.linalg.norm(d, axis=1, keepdims=True), g.normals)
+    direct = FLUX / (4 * np.pi) * np.clip(cos, 0, None) / np.sum(d * d, axis=1)
+    np.testing.assert_allclose(g.at_dimmers_direct(g.dimmers), direct, rtol=1e-6)
+
+
+ROOM = """
+[materials.wall]
+reflectance = 0.7
+[materials.floor]
+reflectance = 0.3
+[photometry.iso]
+kind = "isotropic"
+flux_lm = 3000
+[photometry.down]
+kind = "lambertian"
+flux_lm = 2000
+[networks.a]
+dimmer = 0.3
+[networks.b]
+dimmer = 0.9
+[[geometry]]
+kind = "box"
+min = [0, 0, 0]
+max = [4, 3, 2.5]
+normals = "inward"
+material = "wall"
+[[geometry]]
+kind = "rectangle"
+origin = [0.5, 0.5, 0.01]
+u = [3, 0, 0]
+v = [0, 2, 0]
+material = "floor"
+[[luminaires]]
+name = "A1"
+photometry = "iso"
+position = [1, 1.5, 2.0]
+network = "a"
+[[luminaires]]
+name = "B1"
+photometry = "down"
+position = [3, 1.0, 2.4]
+network = "b"
+[[luminaires]]
+name = "B2"
+photometry = "down"
+position = [3, 2.0, 2.4]
+network = "b"
+aim = { tilt = 30, pan = 90 }
+[[grids]]
+name = "wp"
+kind = "plane"
+origin = [0.2, 0.2, 0.8]
+u = [3.6, 0, 0]
+v = [0, 2.6, 0]
+nu = 6
+nv = 5
+[solver]
+patch_size = 0.4
+tolerance = 1e-11
+"""
+
+
+def test_any_dimmer_vector_equals_a_full_resolve(write_study):
+    """B = Σ α_k B_k (paper eq. 10) against a solve with the dimmers baked into the sources."""
+    study = load_study(write_study(ROOM))
+    sc = study.scene
+    sol = lumijax.compute(study).lighting
+    alpha = np.array([0.3, 0.9])
+    scaled = dataclasses.replace(sc, luminaires=tuple(
+        dataclasses.replace(lum, scale=lum.scale * alpha[sc.network_names.index(lum.network)],
+                            network="a")
+        for lum in sc.luminaires))
+    settings = lumijax._study.solver_settings(study)
+    one = solve_lighting(scaled, sol.points, sol.normals, settings)
+    np.testing.assert_allclose(sol.radiosity_at(alpha), one.radiosity[0], rtol=1e-6)
+    np.testing.assert_allclose(alpha @ sol.point_total, one.point_total[0], rtol=1e-6)
+
+
+def test_replacing_one_luminaire_equals_a_full_resolve(write_study):
+    study = load_study(write_study(ROOM))
+    sc = study.scene
+    sol = lumijax.compute(study).lighting
+    moved = dataclasses.replace(sc.luminaires[2], position=np.array([2.0, 1.5, 2.3]), tilt=45.0,
+                                pan=-60.0, network="a")
+    fast = sol.replace_luminaire(2, moved)
+    full = solve_lighting(fast.scene, sol.points, sol.normals,
+                          lumijax._study.solver_settings(study))
+    np.testing.assert_allclose(fast.radiosity, full.radiosity, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(fast.point_total, full.point_total, rtol=1e-6, atol=1e-9)
+    assert not np.allclose(fast.point_total, sol.point_total)  # it did change something
+
+
+def test_open_scene_says_light_escapes(write_study):
+    text = ROOM.replace('normals = "inward"\nmaterial = "wall"', 'normals = "outward"\nmaterial = "wall"')
+    text = text.replace("position = [1, 1.5, 2.0]", "position = [6, 1.5, 2.0]")
+    text = text.replace("position = [3, 1.0, 2.4]", "position = [6, 1.0, 5]")
+    text = text.replace("position = [3, 2.0, 2.4]", "position = [6, 2.0, 5]")
+    with pytest.warns(LumijaxWarning, match="the scene is open"):
+        lumijax.compute(load_study(write_study(text)))
+
+
+def test_indirect_adds_light_and_direct_is_unchanged(write_study):
+    study = load_study(write_study(ROOM))
+    with_gi = lumijax.compute(study)["wp"]
+    without = lumijax.compute(study, indirect=False)["wp"]
+    np.testing.assert_allclose(with_gi.at_dimmers_direct(with_gi.dimmers),
+                               without.illuminance_lux, rtol=1e-12)
+    assert np.all(with_gi.illuminance_lux > without.illuminance_lux)
