@@ -79,6 +79,7 @@ def compute(
     shadows: bool = True,
     indirect: bool | None = None,
     progress: Callable[[str, int, int], None] | None = None,
+    cache_dir: str | Path | None = None,
 ) -> Results:
     """Light the study: direct and inter-reflected illuminance on every grid, per network.
 
@@ -91,6 +92,9 @@ def compute(
         Override the config's ``[solver] indirect``.
     progress
         Called as ``progress(stage, done, total)``.
+    cache_dir
+        Where to keep the transport operator between runs; default ``.lumijax-cache`` beside
+        the config (when ``[solver] cache`` is true).
     """
     sc = study.scene
     t0 = time.perf_counter()
@@ -106,8 +110,13 @@ def compute(
     settings = solver_settings(study, **overrides)
     if settings.precision == "float64":
         jax.config.update("jax_enable_x64", True)
+    if not study.config.solver.cache:
+        cache_dir = None
+    elif cache_dir is None and study.config.source is not None:
+        cache_dir = study.config.source.parent / ".lumijax-cache"
     if shadows:
-        lighting = solve_lighting(sc, points, normals, settings, progress=progress)
+        lighting = solve_lighting(sc, points, normals, settings, progress=progress,
+                                  cache_dir=cache_dir)
     else:
         lighting = _unshadowed(sc, points, normals, progress)
     total = lighting.point_total
@@ -135,10 +144,12 @@ def compute(
     }
     timing = {"load": study.load_s, **lighting.stats.get("timing_s", {}),
               "total": time.perf_counter() - t0}
-    counts = {k: v for k, v in lighting.stats.items() if isinstance(v, int)}
+    counts = {k: v for k, v in lighting.stats.items()
+              if isinstance(v, int) and not isinstance(v, bool)}
     counts["grid_points"] = int(len(points))
     solver = {k: v for k, v in lighting.stats.items()
-              if k in ("patch_size_m", "iterations", "residual", "escaped_fraction")}
+              if k in ("patch_size_m", "iterations", "residual", "escaped_fraction",
+                       "operator_cache_hit")}
     return Results(
         study=sc.name, grids=out, networks=networks, timing_s=timing, counts=counts,
         solver=solver, lighting=lighting,

@@ -57,7 +57,8 @@ def _summary_table(results, console) -> None:
     console.print(table)
 
 
-def _run(config: Path, out: Path, *, images: bool, shadows: bool, console) -> int:
+def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
+         cache_dir: Path | None = None) -> int:
     from ._study import compute, load_study
     from .results import write_results
 
@@ -65,7 +66,7 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console) -> in
     study = load_study(config)
     progress, update = _progress_bar(console, "lighting")
     with progress:
-        results = compute(study, shadows=shadows, progress=update)
+        results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir)
     paths = write_results(results, out, images=images)
     _summary_table(results, console)
     n = results.counts.get("shadow_rays", 0)
@@ -145,8 +146,9 @@ def main(argv: list[str] | None = None) -> int:
             return _check(args.config, as_json=args.json, console=console)
         if args.command == "demo":
             console.print(f"lumijax demo: {default_study_path()}")
+            # the bundled study may sit in a read-only install: cache beside the outputs
             return _run(default_study_path(), args.out, images=True, shadows=True,
-                        console=console)
+                        console=console, cache_dir=args.out / ".lumijax-cache")
         out = args.out if args.out is not None else args.config.with_name(
             args.config.stem + "-out")
         return _run(args.config, out, images=not args.no_images, shadows=not args.no_shadows,

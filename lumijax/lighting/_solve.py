@@ -50,7 +50,7 @@ def solve_lighting(
     settings: SolverSettings = SolverSettings(),
     *,
     progress: Callable[[str, int, int], None] | None = None,
-    operator_cache=None,
+    cache_dir=None,
 ) -> LightingSolution:
     """Direct and inter-reflected light of ``scene`` on the given calculation points.
 
@@ -64,12 +64,12 @@ def solve_lighting(
         :class:`SolverSettings`.
     progress
         Called as ``progress(stage, done, total)``.
-    operator_cache
-        Optional callable ``(patches, partition, caster) -> TransportOperator`` that loads or
-        builds the operator (the on-disk cache); default: build it.
+    cache_dir
+        Folder of the on-disk operator cache (``.lumijax-cache`` beside the config); ``None``
+        builds the operator every time.
     """
-    from ..mesh import mesh_patches, partition
-    from ..transport import build_operator
+    from ..mesh import PartitionSettings, mesh_patches, partition
+    from ..transport import build_operator, cached_operator
 
     timing: dict[str, float] = {}
     stats: dict = {}
@@ -100,15 +100,19 @@ def solve_lighting(
     size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     caster = scene.raycaster
-    part = partition(patches, max_block=settings.max_block, occluders=caster)
     timing["mesh"] = time.perf_counter() - t
-    stats.update(patches=patches.n, patch_size_m=size, blocks=part.n_blocks)
+    stats.update(patches=patches.n, patch_size_m=size)
 
     t = time.perf_counter()
     dtype = np.float64 if settings.precision == "float64" else np.float32
-    if operator_cache is not None:
-        transport = operator_cache(patches, part, caster)
+    if cache_dir is not None:
+        transport, hit = cached_operator(
+            patches, tri.vertices, cache_dir=cache_dir, dtype=dtype, caster=caster,
+            partition_settings=PartitionSettings(max_block=settings.max_block),
+        )
+        stats["operator_cache_hit"] = bool(hit)
     else:
+        part = partition(patches, max_block=settings.max_block, occluders=caster)
         transport = build_operator(patches, part, caster, dtype=dtype)
     timing["operator"] = time.perf_counter() - t
     stats["operator_bytes"] = int(transport.nbytes)

@@ -40,7 +40,9 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
     """Write results into ``out_dir`` (created if needed) and return the paths written.
 
     Files: ``results.json`` (the documented contract, docs/results.md), ``grids/NAME.csv``
-    (x, y, z in m; lux) and, with ``images``, ``images/NAME.png`` false-colour iso-lux maps.
+    (x, y, z in m; lux), ``patches.vtp`` (the radiosity patches and their light, when
+    inter-reflection was computed) and, with ``images``, ``images/NAME.png`` false-colour
+    iso-lux maps.
     """
     out_dir = Path(out_dir)
     try:
@@ -80,6 +82,12 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
                     raise OutputError(f"cannot draw the map of grid {name!r}: {e.message}",
                                       file=out_dir) from None
                 written[f"images/{name}.png"] = Path("images") / f"{name}.png"
+        lighting = results.lighting
+        if lighting is not None and lighting.patches is not None:
+            from ._vtk import write_patches_vtp
+
+            write_patches_vtp(lighting, lighting.scene.dimmers, staging / "patches.vtp")
+            written["patches.vtp"] = Path("patches.vtp")
         final: dict[str, Path] = {}
         mode = file_mode()
         for key, rel in written.items():

@@ -170,3 +170,22 @@ def test_indirect_adds_light_and_direct_is_unchanged(write_study):
     np.testing.assert_allclose(with_gi.at_dimmers_direct(with_gi.dimmers),
                                without.illuminance_lux, rtol=1e-12)
     assert np.all(with_gi.illuminance_lux > without.illuminance_lux)
+
+
+def test_patches_file_opens_in_pyvista_with_consistent_light(write_study, tmp_path):
+    import pyvista as pv
+
+    study = load_study(write_study(ROOM))
+    res = lumijax.compute(study)
+    paths = lumijax.write_results(res, tmp_path / "out", images=False)
+    mesh = pv.read(paths["patches.vtp"])
+    sol = res.lighting
+    assert mesh.n_cells == sol.patches.n
+    b = mesh.cell_data["radiosity_lm_m2"]
+    np.testing.assert_allclose(b, study.scene.dimmers @ sol.radiosity, rtol=1e-6)
+    np.testing.assert_allclose(mesh.cell_data["luminance_cd_m2"], b / np.pi, rtol=1e-6)
+    # a diffuse patch reflects ρ of what it receives: B = ρ E (the solve's own equation)
+    e = mesh.cell_data["illuminance_lux"]
+    np.testing.assert_allclose(b, mesh.cell_data["reflectance"] * e, rtol=1e-3,
+                               atol=1e-6 * b.max())
+    assert "radiosity_lm_m2:a" in mesh.cell_data and "radiosity_lm_m2:b" in mesh.cell_data
