@@ -68,6 +68,7 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
         indirect=c.indirect, patch_size=c.patch_size, target_patches=c.target_patches,
         max_block=c.max_block, method=c.method, tolerance=c.tolerance,
         max_iterations=c.max_iterations, gather_rays=c.gather_rays, precision=c.precision,
+        spectral_samples=c.spectral_samples,
     )
     values.update(overrides)
     return SolverSettings(**values)
@@ -131,6 +132,7 @@ def compute(
             name=g.name, points=g.points, normals=g.normals, networks=names,
             by_network_lux=total[:, sl], dimmers=dimmers, shape=g.shape,
             target_lux=g.target_lux, direct_by_network_lux=lighting.point_direct[:, sl],
+            xyz_by_network=None if lighting.point_xyz is None else lighting.point_xyz[:, :, sl],
         )
     flux = sc.network_flux_lm()
     networks = {
@@ -149,7 +151,9 @@ def compute(
     counts["grid_points"] = int(len(points))
     solver = {k: v for k, v in lighting.stats.items()
               if k in ("patch_size_m", "iterations", "residual", "escaped_fraction",
-                       "operator_cache_hit")}
+                       "operator_cache_hit", "spectral_samples")}
+    if lighting.spectral is not None and lighting.spectral.sampling is not None:
+        solver["wavelengths_nm"] = [float(w) for w in lighting.spectral.sampling.wavelengths_nm]
     return Results(
         study=sc.name, grids=out, networks=networks, timing_s=timing, counts=counts,
         solver=solver, lighting=lighting,
@@ -165,7 +169,7 @@ def _unshadowed(scene, points, normals, progress) -> LightingSolution:
     k = len(scene.networks)
     return LightingSolution(
         scene=scene, points=points, normals=normals, patches=None, transport=None, gather=None,
-        rho=None, patch_direct=np.zeros((k, 0)), radiosity=np.zeros((k, 0)),
-        point_direct=d.by_network, point_indirect=np.zeros_like(d.by_network),
-        stats={"shadow_rays": 0},
+        spectral=None, rho=None, patch_direct=np.zeros((k, 0)), radiosity=np.zeros((k, 0)),
+        radiosity_xyz=None, point_direct=d.by_network, point_indirect=np.zeros_like(d.by_network),
+        point_xyz=None, stats={"shadow_rays": 0},
     )

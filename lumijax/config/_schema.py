@@ -335,6 +335,7 @@ class SolverConfig(_Model):
     max_iterations: Annotated[int, Field(ge=1)] = 1000
     gather_rays: Annotated[int, Field(ge=16, le=65536)] = 512
     precision: Literal["float32", "float64"] = "float32"
+    spectral_samples: Annotated[int, Field(ge=0, le=64)] = 16
     cache: bool = True
 
 

@@ -26,7 +26,8 @@ __all__ = ["DirectLighting", "direct_illuminance", "sub_source_offsets", "suppor
 
 _MAX_SUB = 32  # sub-sources per opening axis: beyond this a bar is closer than 1/6 of its length
 _PAIRS_PER_CALL = 1 << 20  # pairs per kernel call: one compiled shape per photometry
-_CULL_PAIRS = 1 << 22  # pairs examined per numpy culling step (~50 MB of float32 vectors)
+_CULL_PAIRS = 1 << 18  # (source, tile) pairs per culling step
+_TILE = 256  # receiver points per culling tile
 
 Progress = Callable[[int, int], None]
 
@@ -141,7 +142,7 @@ def direct_illuminance(
     total = sum(len(b[1]) for b in batches) + len(scene.area_sources)
     done = 0
     pts_j, nrm_j = jnp.asarray(points), jnp.asarray(normals)
-    pts32, nrm32 = points.astype(np.float32), normals.astype(np.float32)
+    tiles = _Tiles.build(points)
     for phot_name, pos, rot, scale, owner, centre, d_lo, d_hi in batches:
         banded = bool(np.any(d_lo > 0) or np.any(np.isfinite(d_hi)))
         dist = scene.photometries[phot_name].distribution
@@ -151,23 +152,15 @@ def direct_illuminance(
         tables = (jnp.asarray(np.vstack([pos, pos[:1]])),
                   jnp.asarray(np.concatenate([rot, rot[:1]])),
                   jnp.asarray(np.append(scale, 0.0)))
-        per_cull = max(1, _CULL_PAIRS // n_pts)
+        per_cull = max(1, _CULL_PAIRS // max(len(tiles.radius), 1))
         batch = _SourceBatch(dist, tables, pos, owner)
         pending: list[tuple[np.ndarray, np.ndarray]] = []
         pending_n = 0
         for c0 in range(0, len(pos), per_cull):
             t0 = time.perf_counter()
             sl = slice(c0, c0 + per_cull)
-            d = pts32[None, :, :] - pos[sl, None, :].astype(np.float32)
-            facing = np.einsum("lpk,pk->lp", d, nrm32) < 0
-            along = np.einsum("lpk,lk->lp", d, axis[sl].astype(np.float32))
-            inside = along >= cos_support * np.sqrt(np.einsum("lpk,lpk->lp", d, d)) - 1e-6
-            mask = facing & inside
-            if banded:  # sub-sources apply only at the distances their subdivision is for
-                dc = pts32[None, :, :] - centre[sl, None, :].astype(np.float32)
-                rc = np.sqrt(np.einsum("lpk,lpk->lp", dc, dc))
-                mask &= (rc >= d_lo[sl, None]) & (rc < d_hi[sl, None])
-            i, j = np.nonzero(mask)
+            i, j = _candidates(tiles, points, normals, pos[sl], axis[sl], cos_support,
+                               centre[sl] if banded else None, d_lo[sl], d_hi[sl])
             result.timing_s["cull"] += time.perf_counter() - t0
             pending.append(((i + c0).astype(np.int32), j.astype(np.int32)))
             pending_n += len(i)
@@ -200,6 +193,74 @@ class _SourceBatch:
     tables: tuple
     positions: np.ndarray
     network: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Tiles:
+    """Receiver points clustered by median bisection into tiles of at most ``_TILE`` points:
+    ``order[offsets[t]:offsets[t+1]]`` are tile t's points; each tile has a bounding sphere."""
+
+    order: np.ndarray
+    offsets: np.ndarray
+    centre: np.ndarray
+    radius: np.ndarray
+
+    @classmethod
+    def build(cls, points: np.ndarray) -> _Tiles:
+        leaves: list[np.ndarray] = []
+        stack = [np.arange(len(points))]
+        while stack:
+            idx = stack.pop()
+            if len(idx) <= _TILE:
+                leaves.append(idx)
+                continue
+            p = points[idx]
+            axis = int(np.argmax(np.ptp(p, axis=0)))
+            half = np.argsort(p[:, axis], kind="stable")
+            mid = len(idx) // 2
+            stack += [idx[half[:mid]], idx[half[mid:]]]
+        order = np.concatenate(leaves)
+        offsets = np.concatenate([[0], np.cumsum([len(x) for x in leaves])])
+        centre = np.array([points[x].mean(axis=0) for x in leaves])
+        radius = np.array([np.linalg.norm(points[x] - c, axis=1).max()
+                           for x, c in zip(leaves, centre, strict=True)])
+        return cls(order, offsets, centre, radius)
+
+
+def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi):
+    """``(source, point)`` pairs that can receive light: the point faces the source, lies in
+    the support cone of its beam and (sub-sources) in its distance band.
+
+    Whole tiles are rejected first by a cone–sphere and a band–sphere test, so a narrow spot
+    costs little more than the points it lights.
+    """
+    v = tiles.centre[None, :, :] - pos[:, None, :]  # (src, tiles, 3)
+    dist = np.linalg.norm(v, axis=2)
+    r = tiles.radius[None, :]
+    # angle to the tile centre minus the tile's angular radius must be within the cone
+    cos_c = np.einsum("ltk,lk->lt", v, axis) / np.maximum(dist, 1e-300)
+    ang = np.arccos(np.clip(cos_c, -1.0, 1.0)) - np.arcsin(np.clip(r / np.maximum(dist, 1e-300),
+                                                                   0.0, 1.0))
+    keep = (dist <= r) | (ang <= np.arccos(np.clip(cos_support, -1.0, 1.0)) + 1e-9)
+    if centre is not None:
+        dc = np.linalg.norm(tiles.centre[None, :, :] - centre[:, None, :], axis=2)
+        keep &= (dc + r >= d_lo[:, None]) & (dc - r < d_hi[:, None])
+    src_out, pt_out = [], []
+    for li in np.flatnonzero(keep.any(axis=1)):
+        sel = np.flatnonzero(keep[li])
+        idx = np.concatenate([tiles.order[tiles.offsets[t]:tiles.offsets[t + 1]] for t in sel])
+        d = pts[idx] - pos[li]
+        rr = np.sqrt(np.einsum("pk,pk->p", d, d))
+        ok = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) & (d @ axis[li] >= cos_support * rr - 1e-9)
+        if centre is not None:
+            rc = np.linalg.norm(pts[idx] - centre[li], axis=1)
+            ok &= (rc >= d_lo[li]) & (rc < d_hi[li])
+        hit = idx[ok]
+        src_out.append(np.full(len(hit), li, np.int32))
+        pt_out.append(hit.astype(np.int32))
+    if not src_out:
+        return np.zeros(0, np.int32), np.zeros(0, np.int32)
+    return np.concatenate(src_out), np.concatenate(pt_out)
 
 
 def _bucket(n: int) -> int:

@@ -5,10 +5,12 @@ Light adds linearly, so each network k is solved once at dimmer 1 and any dimmer
 
 1. the scene's triangles cut into patches and partitioned into blocks (``lumijax.mesh``);
 2. the transport operator F of the visible block pairs (``lumijax.transport``);
-3. direct irradiance on every patch and every calculation point, per network
-   (``lumijax.direct``, shadows by ray casting);
-4. one batched solve ``(I − ρF) B = ρ E_direct`` for all networks at once (``lumijax.solve``);
-5. gathering ``G B`` of the inter-reflected light onto the calculation points.
+3. direct irradiance on every patch and every calculation point, per (network, spectrum)
+   group (``lumijax.direct``, shadows by ray casting);
+4. one batched solve ``(I − ρ(λ)F) B = ρ(λ) E_direct s(λ)`` for all groups and sample
+   wavelengths at once (``lumijax.solve``);
+5. gathering ``G B`` of the inter-reflected light onto the calculation points, and the
+   reduction of the spectral values to lux and CIE XYZ.
 
 Changing one luminaire re-shoots only its difference (paper section 6): see
 :meth:`LightingSolution.replace_luminaire`.
@@ -20,12 +22,14 @@ import dataclasses
 import time
 from dataclasses import dataclass, field
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
 from ..direct import direct_illuminance
 from ._gather import GatherOperator
+from ._spectral import SpectralSetup
 
 __all__ = ["LightingSolution"]
 
@@ -38,18 +42,23 @@ class LightingSolution:
     ----------
     scene
         The :class:`lumijax.scene.Scene` solved.
-    patches, transport, gather
-        Radiosity patches, form factors, and the patches → points gather map (``None`` when
-        inter-reflection is off or the scene has no surfaces).
+    points, normals
+        The calculation points of all grids, concatenated in grid order.
+    patches, transport, gather, spectral
+        Radiosity patches, form factors, the patches → points gather map and the spectral
+        set-up (all ``None`` when inter-reflection is off or the scene has no surfaces).
     rho
         Luminous reflectance per patch (dimensionless).
     patch_direct
         ``(networks, patches)`` direct irradiance on the patches (lx).
     radiosity
-        ``(networks, patches)`` radiosity B (lm/m²) — reflected direct plus all bounces.
+        ``(networks, patches)`` luminous radiosity B (lm/m²): reflected direct plus all bounces.
+    radiosity_xyz
+        ``(networks, 3, patches)`` CIE XYZ of the radiosity (Y = ``radiosity``), or None.
     point_direct, point_indirect
-        ``(networks, points)`` direct and inter-reflected illuminance (lx) at the calculation
-        points of all grids, concatenated in grid order.
+        ``(networks, points)`` direct and inter-reflected illuminance (lx).
+    point_xyz
+        ``(networks, 3, points)`` CIE XYZ of the total illuminance (Y in lx), or None.
     """
 
     scene: object
@@ -58,11 +67,14 @@ class LightingSolution:
     patches: object | None
     transport: object | None
     gather: GatherOperator | None
+    spectral: SpectralSetup | None
     rho: Float[np.ndarray, " patches"] | None
     patch_direct: Float[np.ndarray, "net patches"]
     radiosity: Float[np.ndarray, "net patches"]
+    radiosity_xyz: Float[np.ndarray, "net 3 patches"] | None
     point_direct: Float[np.ndarray, "net points"]
     point_indirect: Float[np.ndarray, "net points"]
+    point_xyz: Float[np.ndarray, "net 3 points"] | None
     solve_method: str = "bicgstab"
     solve_tolerance: float | None = None
     solve_max_steps: int = 1000
@@ -78,22 +90,19 @@ class LightingSolution:
         return np.asarray(dimmers, np.float64) @ self.radiosity
 
     def patch_illuminance(self) -> Float[np.ndarray, "net patches"]:
-        """Irradiance on each patch per network (lx): direct + F·B."""
+        """Irradiance on each patch per network (lx): direct + F·B (luminous)."""
         if self.transport is None:
             return self.patch_direct
-        fb = np.asarray(self.transport.matmul(jnp.asarray(self.radiosity.T, self._dtype))).T
+        fb = np.asarray(self.transport.matmul(jnp.asarray(self.radiosity.T, _dtype()))).T
         return self.patch_direct + fb
-
-    @property
-    def _dtype(self):
-        return jnp.float64 if self.radiosity.dtype == np.float64 and _x64() else jnp.float32
 
     def replace_luminaire(self, index: int, luminaire) -> LightingSolution:
         """The solution with luminaire ``index`` replaced (moved, re-aimed, re-lamped, …).
 
         Only the difference is re-shot: the old and new luminaire's direct light on patches and
-        points, one single-column solve of ``(I − ρF) ΔB = ρ ΔE``, and one gather. The result
-        equals a full re-solve up to the solver's tolerance. The network may change too.
+        points, one solve of ``(I − ρF) ΔB = ρ ΔE`` over the sample wavelengths, and one
+        gather. The result equals a full re-solve up to the solver's tolerance. The network
+        and the spectrum may change too.
         """
         sc = self.scene
         old = sc.luminaires[index]
@@ -102,43 +111,75 @@ class LightingSolution:
         new_scene = dataclasses.replace(sc, luminaires=tuple(lums))
         names = sc.network_names
         t0 = time.perf_counter()
-        pd = self.patch_direct.copy()
-        ptd = self.point_direct.copy()
-        rad = self.radiosity.copy()
-        ind = self.point_indirect.copy()
+        upd = {name: np.array(getattr(self, name), copy=True) for name in (
+            "patch_direct", "radiosity", "point_direct", "point_indirect")}
+        for name in ("radiosity_xyz", "point_xyz"):
+            arr = getattr(self, name)
+            upd[name] = None if arr is None else arr.copy()
         for lum, sign in ((old, -1.0), (luminaire, 1.0)):
             k = names.index(lum.network)
-            one = dataclasses.replace(sc, luminaires=(dataclasses.replace(lum, network=names[0]),),
-                                      area_sources=())
+            one = dataclasses.replace(
+                sc, luminaires=(dataclasses.replace(lum, network=names[0]),), area_sources=())
             e_pts = direct_illuminance(one, self.points, self.normals).by_network[0]
-            ptd[k] += sign * e_pts
+            upd["point_direct"][k] += sign * e_pts
             if self.patches is None:
                 continue
             e_patch = direct_illuminance(one, self.patches.centroid,
                                          self.patches.normal).by_network[0]
-            pd[k] += sign * e_patch
-            values, _ = _solve_columns(self, e_patch[None, :])
-            db = values[0]
-            rad[k] += sign * db
-            ind[k] += sign * np.asarray(self.gather(jnp.asarray(db)))
+            upd["patch_direct"][k] += sign * e_patch
+            shot = shoot(self, e_patch[None], [lum.spectrum], e_pts[None])
+            upd["radiosity"][k] += sign * shot.radiosity[0]
+            upd["point_indirect"][k] += sign * shot.point_indirect[0]
+            if upd["point_xyz"] is not None:
+                upd["radiosity_xyz"][k] += sign * shot.radiosity_xyz[0]
+                upd["point_xyz"][k] += sign * shot.point_xyz[0]
         stats = dict(self.stats, incremental_s=time.perf_counter() - t0)
-        return dataclasses.replace(self, scene=new_scene, patch_direct=pd, radiosity=rad,
-                                   point_direct=ptd, point_indirect=ind, stats=stats)
+        return dataclasses.replace(self, scene=new_scene, stats=stats, **upd)
 
 
-def _x64() -> bool:
-    import jax
-
-    return bool(jax.config.read("jax_enable_x64"))
+def _dtype():
+    return jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
 
 
-def _solve_columns(sol: LightingSolution, direct: Float[np.ndarray, "cols patches"]):
-    """Radiosity ``(cols, patches)`` for the given direct irradiances (lx) on the patches."""
+@dataclass(frozen=True)
+class Shot:
+    """Light shot by a set of sources (one row each) into the scene."""
+
+    radiosity: Float[np.ndarray, "src patches"]
+    radiosity_xyz: Float[np.ndarray, "src 3 patches"] | None
+    point_indirect: Float[np.ndarray, "src points"]
+    point_xyz: Float[np.ndarray, "src 3 points"] | None
+    result: object
+
+
+def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
+    """Solve and gather the inter-reflected light of sources with these direct irradiances.
+
+    Parameters
+    ----------
+    patch_direct, point_direct
+        ``(src, patches)`` and ``(src, points)`` direct illuminance (lx), one row per source
+        (group) with spectrum ``spectra[i]`` (None: the default).
+    """
     from ..solve import solve_radiosity
 
-    dtype = sol._dtype
-    rho = jnp.asarray(sol.rho, dtype)
-    b0 = rho[:, None] * jnp.asarray(direct.T, dtype)
-    res = solve_radiosity(sol.transport, rho[:, None], b0, method=sol.solve_method,
+    sp = sol.spectral
+    weights = [sp.weights(s) for s in spectra]
+    s = np.stack([w[0] for w in weights])  # (src, W)
+    h = np.stack([w[1] for w in weights])  # (src, 3, W)
+    dtype = _dtype()
+    rho = jnp.asarray(sp.rho, dtype)  # (P, W)
+    b0 = rho[:, None, :] * jnp.asarray(np.asarray(patch_direct).T[:, :, None] * s[None], dtype)
+    res = solve_radiosity(sol.transport, rho[:, None, :], b0, method=sol.solve_method,
                           rtol=sol.solve_tolerance, max_steps=sol.solve_max_steps)
-    return np.asarray(res.value, np.float64).T, res
+    b = np.asarray(res.value, np.float64)  # (P, src, W)
+    b_xyz = np.einsum("scw,psw->scp", h, b)  # (src, 3, P)
+    e_ind = np.asarray(sol.gather(jnp.asarray(b, dtype)), np.float64)  # (N, src, W)
+    ind_xyz = np.einsum("scw,nsw->scn", h, e_ind)  # (src, 3, N)
+    colour = np.einsum("scw,sw->sc", h, s)  # XYZ of each source's light, Y = 1
+    point_xyz = ind_xyz + colour[:, :, None] * np.asarray(point_direct)[:, None, :]
+    spectral = sp.sampling is not None
+    return Shot(
+        radiosity=b_xyz[:, 1], radiosity_xyz=b_xyz if spectral else None,
+        point_indirect=ind_xyz[:, 1], point_xyz=point_xyz if spectral else None, result=res,
+    )

@@ -2,18 +2,19 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import jax.numpy as jnp
 import numpy as np
 
 from ..direct import direct_illuminance
 from ..errors import LumijaxWarning
 from ._gather import build_gather
-from ._solution import LightingSolution, _solve_columns
+from ._solution import LightingSolution, shoot
+from ._spectral import SpectralSetup
 
 __all__ = ["SolverSettings", "solve_lighting", "auto_patch_size"]
 
@@ -34,6 +35,7 @@ class SolverSettings:
     max_iterations: int = 1000
     gather_rays: int = 512
     precision: str = "float32"
+    spectral_samples: int = 16
 
 
 def auto_patch_size(total_area_m2: float, target_patches: int) -> float:
@@ -81,18 +83,31 @@ def solve_lighting(
 
         return report
 
+    # Sources grouped by (network, spectrum): a group is one column of the solve per sample
+    # wavelength; networks sum their groups.
+    group_of, groups = _emission_groups(scene)
+    gscene = _grouped_scene(scene, group_of, len(groups))
+    k = len(scene.networks)
+    to_net = np.zeros((k, len(groups)))
+    for gi, (net, _) in enumerate(groups):
+        to_net[net, gi] = 1.0
+
+    def per_network(a):
+        return None if a is None else np.tensordot(to_net, a, axes=(1, 0))
+
     t = time.perf_counter()
-    direct_pts = direct_illuminance(scene, points, normals, progress=stage("direct light"))
+    direct_pts = direct_illuminance(gscene, points, normals, progress=stage("direct light"))
     timing["direct_points"] = time.perf_counter() - t
     stats["shadow_rays"] = direct_pts.shadow_rays
-    k = len(scene.networks)
+    point_direct = per_network(direct_pts.by_network)
     tri = scene.triangles
     if not settings.indirect or len(tri) == 0 or k == 0:
         zeros = np.zeros((k, 0))
         return LightingSolution(
             scene=scene, points=points, normals=normals, patches=None, transport=None,
-            gather=None, rho=None, patch_direct=zeros, radiosity=zeros,
-            point_direct=direct_pts.by_network, point_indirect=np.zeros_like(direct_pts.by_network),
+            gather=None, spectral=None, rho=None, patch_direct=zeros, radiosity=zeros,
+            radiosity_xyz=None, point_direct=point_direct,
+            point_indirect=np.zeros_like(point_direct), point_xyz=None,
             stats={**stats, "timing_s": timing},
         )
 
@@ -118,42 +133,75 @@ def solve_lighting(
     stats["operator_bytes"] = int(transport.nbytes)
 
     t = time.perf_counter()
-    direct_patch = direct_illuminance(scene, patches.centroid, patches.normal,
+    direct_patch = direct_illuminance(gscene, patches.centroid, patches.normal,
                                       progress=stage("direct light on patches"))
     timing["direct_patches"] = time.perf_counter() - t
     stats["shadow_rays"] += direct_patch.shadow_rays
 
     rho = np.array([m.luminous_reflectance for m in scene.materials])[patches.material]
     t = time.perf_counter()
+    spectral = SpectralSetup.build(scene, patches.material, settings.spectral_samples)
+    timing["spectral_sampling"] = time.perf_counter() - t
+    stats["spectral_samples"] = spectral.n
+    t = time.perf_counter()
     gather = build_gather(points, normals, patches, caster, rays=settings.gather_rays)
     timing["gather_rays"] = time.perf_counter() - t
 
-    sol = LightingSolution(
+    k = len(scene.networks)
+    blank = LightingSolution(
         scene=scene, points=points, normals=normals, patches=patches, transport=transport,
-        gather=gather, rho=rho, patch_direct=direct_patch.by_network,
-        radiosity=np.zeros_like(direct_patch.by_network), point_direct=direct_pts.by_network,
-        point_indirect=np.zeros_like(direct_pts.by_network), solve_method=settings.method,
-        solve_tolerance=settings.tolerance, solve_max_steps=settings.max_iterations,
+        gather=gather, spectral=spectral, rho=rho, patch_direct=np.zeros((k, patches.n)),
+        radiosity=np.zeros((k, patches.n)), radiosity_xyz=None,
+        point_direct=point_direct, point_indirect=np.zeros_like(point_direct),
+        point_xyz=None, solve_method=settings.method, solve_tolerance=settings.tolerance,
+        solve_max_steps=settings.max_iterations,
     )
     t = time.perf_counter()
-    radiosity, res = _solve_columns(sol, direct_patch.by_network)
-    timing["solve"] = time.perf_counter() - t
-    escaped = np.asarray(res.escaped)
+    shot = shoot(blank, direct_patch.by_network, [g[1] for g in groups],
+                 direct_pts.by_network)
+    timing["solve_and_gather"] = time.perf_counter() - t
+    res = shot.result
+    escaped = np.asarray(res.escaped).ravel()
     stats.update(iterations=int(res.iterations), residual=float(res.residual),
-                 escaped_fraction=[float(x) for x in np.atleast_1d(escaped)])
-    t = time.perf_counter()
-    indirect = np.asarray(gather(jnp.asarray(radiosity.T)), np.float64).T
-    timing["gather"] = time.perf_counter() - t
-    if len(points) and float(np.min(gather.coverage)) < 0.999 and float(np.max(escaped)) > 0.01:
+                 escaped_fraction=float(np.max(escaped)) if escaped.size else 0.0)
+    if len(points) and float(np.min(gather.coverage)) < 0.999 and stats["escaped_fraction"] > 0.01:
         warnings.warn(
-            f"the scene is open: up to {100 * float(np.max(escaped)):.0f} % of the reflected "
+            f"the scene is open: up to {100 * stats['escaped_fraction']:.0f} % of the reflected "
             "light leaves it (to the sky) — fine outdoors, a modelling gap indoors",
             LumijaxWarning, stacklevel=2,
         )
-    return LightingSolution(
-        scene=scene, points=points, normals=normals, patches=patches, transport=transport,
-        gather=gather, rho=rho, patch_direct=direct_patch.by_network, radiosity=radiosity,
-        point_direct=direct_pts.by_network, point_indirect=indirect,
-        solve_method=settings.method, solve_tolerance=settings.tolerance,
-        solve_max_steps=settings.max_iterations, stats={**stats, "timing_s": timing},
+    return dataclasses.replace(
+        blank, patch_direct=per_network(direct_patch.by_network),
+        radiosity=per_network(shot.radiosity), radiosity_xyz=per_network(shot.radiosity_xyz),
+        point_indirect=per_network(shot.point_indirect), point_xyz=per_network(shot.point_xyz),
+        stats={**stats, "timing_s": timing},
+    )
+
+
+def _emission_groups(scene):
+    """Group index of every luminaire and area source, and the (network, spectrum) groups."""
+    from ._spectral import source_spectrum
+
+    net = {n.name: i for i, n in enumerate(scene.networks)}
+    index: dict = {}
+    group_of = []
+    for src in (*scene.luminaires, *scene.area_sources):
+        key = (net[src.network], source_spectrum(src.spectrum))
+        group_of.append(index.setdefault(key, len(index)))
+    return group_of, list(index)
+
+
+def _grouped_scene(scene, group_of, n_groups):
+    """The scene with each source's network replaced by its emission group."""
+    from ..scene import Network
+
+    names = [f"group{i}" for i in range(n_groups)]
+    n_lum = len(scene.luminaires)
+    return dataclasses.replace(
+        scene,
+        networks=tuple(Network(n) for n in names),
+        luminaires=tuple(dataclasses.replace(lum, network=names[group_of[i]])
+                         for i, lum in enumerate(scene.luminaires)),
+        area_sources=tuple(dataclasses.replace(a, network=names[group_of[n_lum + i]])
+                           for i, a in enumerate(scene.area_sources)),
     )

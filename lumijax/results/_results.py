@@ -42,6 +42,14 @@ class GridResult:
     shape: tuple[int, int] | None = None
     target_lux: float | None = None
     direct_by_network_lux: Float[np.ndarray, "net points"] | None = None
+    xyz_by_network: Float[np.ndarray, "net 3 points"] | None = None
+
+    @property
+    def xyz(self) -> Float[np.ndarray, "points 3"] | None:
+        """CIE 1931 2° XYZ of the illuminance at the dimmers (Y = ``illuminance_lux``)."""
+        if self.xyz_by_network is None:
+            return None
+        return np.einsum("k,kcp->pc", np.asarray(self.dimmers, np.float64), self.xyz_by_network)
 
     @property
     def illuminance_lux(self) -> Float[np.ndarray, " points"]:
@@ -77,6 +85,12 @@ class GridResult:
         }
         if self.direct_by_network_lux is not None:
             out["direct_lux"] = self.at_dimmers_direct(self.dimmers).tolist()
+        xyz = self.xyz
+        if xyz is not None:
+            from ..spectral import cct_from_xyz
+
+            out["xyz"] = xyz.tolist()
+            out["cct_k"] = np.asarray(cct_from_xyz(xyz)).tolist()
         if self.shape is not None:
             out["shape"] = list(self.shape)
         if self.target_lux is not None:
