@@ -54,7 +54,7 @@ class Luminaire:
     @property
     def rotation(self) -> Float[np.ndarray, "3 3"]:
         """World rotation ``frame_rotation · Rz(pan) · Ry(−tilt) · Rz(spin)``."""
-        r = np.asarray(aim_rotation(*np.radians([self.tilt, self.pan, self.spin])), np.float64)
+        r = aim_rotation(*np.radians([self.tilt, self.pan, self.spin]), xp=np)
         return self.frame_rotation @ r
 
     @property

@@ -89,21 +89,23 @@ def resolve_group_frames(groups: dict) -> dict[str, Frame]:
 
 
 def aim_rotation(
-    tilt: Float[Array, "..."], pan: Float[Array, "..."], spin: Float[Array, "..."]
+    tilt: Float[Array, "..."], pan: Float[Array, "..."], spin: Float[Array, "..."], *, xp=jnp
 ) -> Float[Array, "... 3 3"]:
     """Luminaire rotation ``Rz(pan) · Ry(−tilt) · Rz(spin)``; angles in **radians**.
 
     ``world = R @ local``. The photometric axis ``(0, 0, −1)`` maps to
-    ``(sin tilt cos pan, sin tilt sin pan, −cos tilt)`` (docs/conventions.md). Differentiable.
+    ``(sin tilt cos pan, sin tilt sin pan, −cos tilt)`` (docs/conventions.md). Differentiable
+    with ``xp = jax.numpy`` (the default); ``xp = numpy`` for plain bookkeeping, which would
+    otherwise pay JAX's per-operation dispatch on every luminaire.
     """
-    tilt, pan, spin = jnp.broadcast_arrays(*(jnp.asarray(a) for a in (tilt, pan, spin)))
-    ct, st = jnp.cos(tilt), jnp.sin(tilt)
-    cp, sp = jnp.cos(pan), jnp.sin(pan)
-    cs, ss = jnp.cos(spin), jnp.sin(spin)
-    zero, one = jnp.zeros_like(ct), jnp.ones_like(ct)
+    tilt, pan, spin = xp.broadcast_arrays(*(xp.asarray(a) for a in (tilt, pan, spin)))
+    ct, st = xp.cos(tilt), xp.sin(tilt)
+    cp, sp = xp.cos(pan), xp.sin(pan)
+    cs, ss = xp.cos(spin), xp.sin(spin)
+    zero, one = xp.zeros_like(ct), xp.ones_like(ct)
 
     def stack(rows):
-        return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
+        return xp.stack([xp.stack(r, axis=-1) for r in rows], axis=-2)
 
     rz_pan = stack([[cp, -sp, zero], [sp, cp, zero], [zero, zero, one]])
     ry_tilt = stack([[ct, zero, -st], [zero, one, zero], [st, zero, ct]])  # Ry(−tilt)

@@ -43,6 +43,7 @@ def _sphere_study(write_study, tmp_path, rho, extra=""):
         [solver]
         patch_size = 0.3
         gather_rays = 2048
+        spectral_samples = 0
         {extra}
     """), sphere.area
 
@@ -121,6 +122,7 @@ nv = 5
 [solver]
 patch_size = 0.4
 tolerance = 1e-11
+spectral_samples = 4  # colour is tested elsewhere; four samples keep the spectral path cheap
 """
 
 
