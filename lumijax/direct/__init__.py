@@ -7,6 +7,5 @@ from ._direct import (
 )
 from ._kernels import (
     point_illuminance as point_illuminance,
-    polygon_form_factor as polygon_form_factor,
     quad_form_factors as quad_form_factors,
 )

@@ -76,8 +76,8 @@ def _pair_block(distribution, positions, rotations, scales, points, normals, sou
 
 
 @jax.jit
-def _quad_block(points, normals, quads, quad_normals):
-    return quad_form_factors(points, normals, quads, quad_normals)
+def _quad_block(points, normals, quads):
+    return quad_form_factors(points, normals, quads)
 
 
 def support_cosine(distribution) -> float:
@@ -381,7 +381,6 @@ def _area_band(area, nu, nv, points, normals, caster, timing):
     # edge across a sub-rectangle is resolved rather than decided by its centre alone
     offs = np.array([[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]])
     samples = base[:, None, :] + offs[None, :, 0, None] * du + offs[None, :, 1, None] * dv
-    qn = np.broadcast_to(area.normal, (len(quads), 3))
     out = np.zeros(len(points))
     rays = 0
     chunk = max(1, _PAIRS_PER_CALL // len(quads))
@@ -389,7 +388,7 @@ def _area_band(area, nu, nv, points, normals, caster, timing):
         sl = slice(p0, p0 + chunk)
         t0 = time.perf_counter()
         f = np.array(_quad_block(jnp.asarray(points[sl]), jnp.asarray(normals[sl]),
-                                 jnp.asarray(quads), jnp.asarray(qn)), dtype=np.float64)
+                                 jnp.asarray(quads)), dtype=np.float64)
         t1 = time.perf_counter()
         timing["kernel"] += t1 - t0
         if caster is not None:
