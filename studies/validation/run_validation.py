@@ -63,6 +63,10 @@ class Row:
     time_s: str = ""
     notes: str = ""
 
+    def __post_init__(self):
+        if self.ok is not None:  # numpy comparisons give np.bool_, which `is True` misses
+            self.ok = bool(self.ok)
+
     def cells(self):
         flag = "" if self.ok is None else ("pass" if self.ok else "**FAIL**")
         return [self.case, self.quantity, self.reference, self.value, self.error,
