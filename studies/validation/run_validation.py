@@ -133,17 +133,18 @@ def toml_list(a) -> str:
 # 1. integrating sphere
 
 
-def sphere_case(out: Path, rho: float, subdivisions: int, patch_size: float, rep: Report,
-                flux: float = 10_000.0, gather_rays: int = 4096, radius: float = 2.0):
+def sphere_study(folder: Path, rho: float, *, subdivisions: int, patch_size: float,
+                 gather_rays: int, points: int, flux: float = 10_000.0, radius: float = 2.0):
+    """Write the integrating-sphere study (inward icosphere, isotropic source at the centre,
+    ``points`` interior calculation points with random normals); return its path, the mesh's
+    own area (m²) and the points. Shared with ``tests/validation``."""
     import trimesh
 
-    folder = out / f"sphere-s{subdivisions}"  # one folder: the ρ variants share the operator
     folder.mkdir(parents=True, exist_ok=True)
     sphere = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
     sphere.invert()  # seen from inside: normals point inward
     sphere.export(folder / "sphere.ply")
-    area = float(sphere.area)
-    pts, nrm = interior_points(24, 0.75 * radius)
+    pts, nrm = interior_points(points, 0.75 * radius)
     path = write_study(folder, f"rho{rho}", f"""
         [study]
         name = "integrating sphere rho={rho}"
@@ -170,6 +171,15 @@ def sphere_case(out: Path, rho: float, subdivisions: int, patch_size: float, rep
         patch_size = {patch_size}
         gather_rays = {gather_rays}
     """)
+    return path, float(sphere.area), pts
+
+
+def sphere_case(out: Path, rho: float, subdivisions: int, patch_size: float, rep: Report,
+                flux: float = 10_000.0, gather_rays: int = 4096, radius: float = 2.0):
+    # one folder: the ρ variants share the operator (reflectance is not in its key)
+    path, area, _ = sphere_study(out / f"sphere-s{subdivisions}", rho, subdivisions=subdivisions,
+                                 patch_size=patch_size, gather_rays=gather_rays, points=24,
+                                 flux=flux, radius=radius)
     res, wall = run(path)
     sol = res.lighting
     e = sol.patch_illuminance()[0]

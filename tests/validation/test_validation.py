@@ -9,7 +9,6 @@ import textwrap
 
 import numpy as np
 import pytest
-import trimesh
 
 import lumijax
 
@@ -54,47 +53,41 @@ def _write(folder, name, text):
     return path
 
 
+def _validation_script():
+    """The validation study's own scene builders (studies/validation/run_validation.py)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "studies" / "validation" / "run_validation.py"
+    spec = importlib.util.spec_from_file_location("run_validation", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
 @pytest.mark.parametrize("rho", [0.2, 0.5, 0.8])
 def test_integrating_sphere(shared_dir, rho):
     """Inward icosphere, isotropic source at the centre: E = Φ/(A(1−ρ)) on the walls (mean 1 %,
-    every patch 3 %), indirect ρΦ/(A(1−ρ)) at interior points with any normal (3 %)."""
-    folder = shared_dir("sphere")
-    sphere = trimesh.creation.icosphere(subdivisions=3, radius=2.0)
-    sphere.invert()
-    sphere.export(folder / "sphere.ply")
-    pts, nrm = _points(8, 1.4)
-    path = _write(folder, f"rho{rho}", f"""
-        [materials.wall]
-        reflectance = {rho}
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {FLUX}
-        [[geometry]]
-        kind = "mesh"
-        file = "sphere.ply"
-        material = "wall"
-        [[luminaires]]
-        name = "L"
-        photometry = "iso"
-        position = [0, 0, 0]
-        network = "n"
-        [[grids]]
-        name = "inside"
-        kind = "points"
-        points = {_toml(pts)}
-        normals = {_toml(nrm)}
-        [solver]
-        patch_size = 0.5
-        gather_rays = 256
-    """)
+    every patch 3 %), indirect ρΦ/(A(1−ρ)) at interior points with any normal (3 %), and the
+    direct part the closed form I cos θ / d²."""
+    path, area, _ = _validation_script().sphere_study(
+        shared_dir("sphere"), rho, subdivisions=3, patch_size=0.5, gather_rays=256, points=8,
+        flux=FLUX)
     res = lumijax.compute(lumijax.load_study(path))
     sol = res.lighting
-    ref = FLUX / (sphere.area * (1 - rho))
+    ref = FLUX / (area * (1 - rho))
     e = sol.patch_illuminance()[0]
     assert _area_mean(e, sol.patches.area) == pytest.approx(ref, rel=0.01)
     np.testing.assert_allclose(e, ref, rtol=0.03)
     g = res.grids["inside"]
-    indirect = g.illuminance_lux - g.at_dimmers_direct(g.dimmers)
+    direct = g.at_dimmers_direct(g.dimmers)
+    d = g.points  # the source is at the origin
+    cos = np.einsum("ij,ij->i", -d / np.linalg.norm(d, axis=1, keepdims=True), g.normals)
+    np.testing.assert_allclose(
+        direct, FLUX / (4 * np.pi) * np.clip(cos, 0, None) / np.sum(d * d, axis=1), rtol=1e-6)
+    indirect = g.illuminance_lux - direct
     assert indirect.mean() == pytest.approx(rho * ref, rel=0.01)
     np.testing.assert_allclose(indirect, rho * ref, rtol=0.03)
 
