@@ -41,7 +41,10 @@ __all__ = [
     "NetworkConfig",
     "PlaneGrid",
     "PointsGrid",
+    "CameraConfig",
     "SolverConfig",
+    "AimRange",
+    "OptimiseConfig",
 ]
 
 
@@ -84,6 +87,24 @@ class StudyInfo(_Model):
     description: str = ""
 
 
+def _ordered_range(v):
+    if v is not None and v[0] > v[1]:
+        raise ValueError(f"the range [{v[0]:g}, {v[1]:g}] is empty: its lower end must not "
+                         "exceed its upper end")
+    return v
+
+
+Range = Annotated[tuple[Finite, Finite], AfterValidator(_ordered_range)]
+
+
+class AimRange(_Model):
+    """``aim_range_deg = { tilt = [lo, hi], pan = [lo, hi] }``: how far the optimiser may turn
+    a luminaire's aim, in degrees relative to its config aim (``[0, 0]`` holds it fixed)."""
+
+    tilt: Range | None = None
+    pan: Range | None = None
+
+
 class GroupConfig(_Model):
     """``[groups.NAME]``: a local frame, ``p_parent = translate + R·(scale ⊙ p)``."""
 
@@ -91,6 +112,7 @@ class GroupConfig(_Model):
     translate: Vec3 = (0.0, 0.0, 0.0)
     rotate: Vec3 = Field((0.0, 0.0, 0.0), description="degrees about x, then y, then z")
     scale: Finite | Vec3 = 1.0
+    aim_range_deg: AimRange | None = None
 
     @field_validator("scale")
     @classmethod
@@ -225,6 +247,7 @@ class PhotometricLuminaire(_LuminaireBase):
     aim_at: Vec3 | None = None
     multiplier: NonNegative = 1.0
     maintenance_factor: Annotated[float, Field(gt=0, le=1)] = 1.0
+    aim_range_deg: AimRange | None = None
 
     @model_validator(mode="after")
     def _aim(self):
@@ -274,12 +297,37 @@ class NetworkConfig(_Model):
 
     dimmer: Annotated[float, Field(ge=0, le=1)] = 1.0
     description: str = ""
+    power_w: NonNegative | None = Field(None, description="W at dimmer 1 (energy term)")
 
 
 class _GridBase(_Model):
     name: Name
     group: Name | None = None
     target_lux: NonNegative | None = None
+    target_csv: Path | None = Field(None, description="CSV x,y,z,lux at the grid's points")
+    target_weight: NonNegative = 1.0
+    min_lux: NonNegative | None = None
+    max_lux: Positive | None = None
+    uniformity_min: Annotated[float, Field(gt=0, le=1)] | None = None
+    max_luminance_cdm2: Positive | None = None
+    reflectance: Annotated[float, Field(ge=0, lt=1)] | None = None
+
+    @field_validator("target_csv", mode="before")
+    @classmethod
+    def _csv(cls, v, info: ValidationInfo):
+        return None if v is None else _resolve(str(v), info)
+
+    @model_validator(mode="after")
+    def _targets(self):
+        if self.target_lux is not None and self.target_csv is not None:
+            raise ValueError("give 'target_lux' or 'target_csv', not both")
+        if self.min_lux is not None and self.max_lux is not None and self.min_lux > self.max_lux:
+            raise ValueError(f"'min_lux' ({self.min_lux:g}) exceeds 'max_lux' "
+                             f"({self.max_lux:g}): no illuminance can meet both")
+        if self.max_luminance_cdm2 is not None and self.reflectance is None:
+            raise ValueError("'max_luminance_cdm2' needs the grid's 'reflectance' "
+                             "(luminance L = reflectance × E / π)")
+        return self
 
 
 class PlaneGrid(_GridBase):
@@ -323,6 +371,37 @@ class PointsGrid(_GridBase):
 Grid = Annotated[PlaneGrid | PointsGrid, Field(discriminator="kind")]
 
 
+class CameraConfig(_Model):
+    """``[cameras.NAME]``: a view of the scene for the report and the viewer (docs/report.md)."""
+
+    position: Vec3
+    target: Vec3
+    up: Vec3 = (0.0, 0.0, 1.0)
+    fov_deg: Annotated[float, Field(gt=0, lt=180)] = Field(50.0, description="vertical, deg")
+    kind: Literal["realistic", "falsecolour"] = "realistic"
+    quantity: Literal["luminance", "illuminance"] = "luminance"
+    scale: Literal["linear", "log"] = "log"
+    levels: list[Positive] | None = None
+    exposure_ev: Finite | None = Field(None, description="EV at ISO 100; None: automatic")
+    tone: Literal["filmic", "reinhard", "clip"] = "filmic"
+    size: tuple[Annotated[int, Field(ge=64, le=8192)], Annotated[int, Field(ge=64, le=8192)]] = (
+        1280, 800)
+    markers: bool = False
+
+    @model_validator(mode="after")
+    def _geometry(self):
+        d = [t - p for t, p in zip(self.target, self.position, strict=True)]
+        n = math.sqrt(sum(x * x for x in d))
+        if n == 0:
+            raise ValueError("'target' is the camera's own position: no direction to look")
+        up = math.sqrt(sum(x * x for x in self.up))
+        cross = (d[1] * self.up[2] - d[2] * self.up[1], d[2] * self.up[0] - d[0] * self.up[2],
+                 d[0] * self.up[1] - d[1] * self.up[0])
+        if up == 0 or math.sqrt(sum(x * x for x in cross)) <= 1e-9 * n * up:
+            raise ValueError("'up' must be a non-zero vector not parallel to target - position")
+        return self
+
+
 class SolverConfig(_Model):
     """``[solver]``: how inter-reflected light is computed (docs/config.md, docs/radiosity.md)."""
 
@@ -339,6 +418,31 @@ class SolverConfig(_Model):
     cache: bool = True
 
 
+class OptimiseConfig(_Model):
+    """``[optimise]``: fit dimmers (and aims) to the grids' targets (docs/optimise.md)."""
+
+    variables: Annotated[list[Literal["dimmers", "aims", "levels"]], Field(min_length=1)] = [
+        "dimmers"]
+    solver: Literal["auto", "levenberg_marquardt", "gauss_newton", "dogleg", "bfgs", "lbfgsb",
+                    "projected_gradient"] = "auto"
+    max_steps: Annotated[int, Field(ge=1, le=100_000)] = 200
+    tolerance: Annotated[float, Field(gt=0, lt=1)] = 1e-8
+    dimmer_min: Annotated[float, Field(ge=0, le=1)] = 0.0
+    energy_weight: NonNegative = 0.0
+    constraint_weight: Positive = 10.0
+    tilt_range_deg: Range = (-15.0, 15.0)
+    pan_range_deg: Range = (-15.0, 15.0)
+    max_luminance_cdm2: Positive | None = None
+    indirect: bool = True
+
+    @field_validator("variables")
+    @classmethod
+    def _unique(cls, v):
+        if len(set(v)) != len(v):
+            raise ValueError(f"each variable may appear once, got {v}")
+        return v
+
+
 class StudyConfig(_Model):
     """A whole study: the root of the TOML file."""
 
@@ -350,7 +454,9 @@ class StudyConfig(_Model):
     luminaires: list[Luminaire] = []
     networks: dict[Name, NetworkConfig] = {}
     grids: list[Grid] = []
+    cameras: dict[Name, CameraConfig] = {}
     solver: SolverConfig = SolverConfig()
+    optimise: OptimiseConfig | None = None
     _source: Path | None = PrivateAttr(None)
 
     @property
