@@ -29,3 +29,4 @@ from .results import (
     Results as Results,
     write_results as write_results,
 )
+from .optimise import Optimisation as Optimisation, optimise as optimise

@@ -208,3 +208,45 @@ def _check_references(cfg: StudyConfig, src: Path | None, text: str) -> None:
                  f"duplicate grid name {g.name!r} (also grids[{grid_names[g.name]}])")
         grid_names[g.name] = i
         check_group(f"grids[{i}].group", g.group)
+    _check_optimise(cfg, fail)
+
+
+def _grid_size(g) -> int:
+    """Points of a grid, as the scene will build it (lumijax.scene._grid)."""
+    import math
+
+    if g.kind == "points":
+        return len(g.points)
+    if g.spacing is not None:
+        nu = max(1, int(round(math.dist((0, 0, 0), g.u) / g.spacing)))
+        nv = max(1, int(round(math.dist((0, 0, 0), g.v) / g.spacing)))
+        return nu * nv
+    return g.nu * g.nv
+
+
+def _check_optimise(cfg: StudyConfig, fail) -> None:
+    """``[optimise]`` and the per-grid targets: something to aim at, CSV maps that fit."""
+    for i, g in enumerate(cfg.grids):
+        if g.target_csv is None:
+            continue
+        from ..optimise._targets import read_target_csv
+
+        key = f"grids[{i}].target_csv"
+        rows = read_target_csv(g.target_csv, key=key)
+        n = _grid_size(g)
+        if len(rows) != n:
+            fail(key, f"{g.target_csv.name} has {len(rows)} rows but grid {g.name!r} has {n} "
+                      "points: give one row (x, y, z, lux) per grid point, in the grid's order")
+    opt = cfg.optimise
+    if opt is None:
+        return
+    wants = [g for g in cfg.grids if g.target_lux is not None or g.target_csv is not None
+             or g.min_lux is not None or g.max_lux is not None or g.uniformity_min is not None
+             or g.max_luminance_cdm2 is not None]
+    if not wants and opt.max_luminance_cdm2 is None and opt.energy_weight == 0:
+        fail("optimise", "nothing to optimise: give a grid a target (target_lux, target_csv, "
+                         "min_lux, max_lux, uniformity_min or max_luminance_cdm2), "
+                         "[optimise] max_luminance_cdm2 or energy_weight")
+    if "levels" in opt.variables and "dimmers" not in opt.variables:
+        fail("optimise.variables", "'levels' scale luminaires within their network: "
+                                   "optimise 'dimmers' too")

@@ -109,6 +109,7 @@ class Results:
     counts: dict[str, int] = field(default_factory=dict)
     solver: dict[str, Any] = field(default_factory=dict)
     lighting: Any = field(default=None, repr=False)
+    optimisation: Any = field(default=None, repr=False)  # lumijax.optimise.Optimisation
 
     def __getitem__(self, grid: str) -> GridResult:
         return self.grids[grid]
@@ -124,4 +125,6 @@ class Results:
             "timing_s": self.timing_s,
             "counts": self.counts,
             "solver": self.solver,
+            **({"optimisation": self.optimisation.to_dict()}
+               if self.optimisation is not None else {}),
         }

@@ -1,0 +1,119 @@
+"""The objective: a weighted sum of squares of residuals, one family per goal.
+
+``f(x) = ½ Σ r(x)²`` where every residual is dimensionless (divided by the goal's own level), so
+that goals in lux, in cd/m² and in watts can be summed, and each family is divided by the square
+root of its count, so that a 10⁴-point grid does not outweigh a 10-point one:
+
+* target (per grid, weight w): ``√(w/N) · (E − T) / mean(T)``;
+* limits (weight c = ``constraint_weight``), hinge² penalties that are exactly zero when the
+  limit is met and have a continuous gradient:
+
+  - ``min_lux``: ``√(c/N) · max(0, Emin − E) / Emin``;
+  - ``uniformity_min`` (U0 = Emin/Eavg ≥ u ⟺ every E ≥ u·Eavg): ``√(c/N) · max(0, u − E/Eavg)``;
+  - ``max_lux``: ``√(c/N) · max(0, E − Emax) / Emax``;
+  - grid ``max_luminance_cdm2``: ``√(c/N) · max(0, ρE/π − Lmax) / Lmax``;
+  - ``[optimise] max_luminance_cdm2`` on every patch, L = B/π: ``√(c/P) · max(0, L − Lmax)/Lmax``;
+
+* energy (weight e = ``energy_weight``): ``√e · Σ α_k P_k / Σ P_k``, the used fraction of the
+  installed power (squared in f: a least-squares solver needs a residual).
+
+The penalties are soft: a limit that cannot be met together with a target ends up slightly
+violated, by an amount that shrinks as ``constraint_weight`` grows; the optimiser reports every
+goal it did not meet.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+__all__ = ["Objective", "TERMS"]
+
+TERMS = ("target", "min_lux", "uniformity_min", "max_lux", "max_luminance_cdm2",
+         "patch_luminance", "energy")
+
+
+class _GridTerm(eqx.Module):
+    start: int = eqx.field(static=True)
+    stop: int = eqx.field(static=True)
+    target: Float[Array, " n"] | None
+    target_ref: float = eqx.field(static=True)
+    weight: float = eqx.field(static=True)
+    min_lux: float | None = eqx.field(static=True)
+    max_lux: float | None = eqx.field(static=True)
+    uniformity_min: float | None = eqx.field(static=True)
+    max_luminance: float | None = eqx.field(static=True)
+    rho: float | None = eqx.field(static=True)
+
+
+def _hinge(v):
+    return jnp.maximum(v, 0.0)
+
+
+class Objective(eqx.Module):
+    """Residuals of every goal from the light at the variables (see the module docstring)."""
+
+    grids: tuple[_GridTerm, ...]
+    power: Float[Array, " net"]
+    energy_weight: float = eqx.field(static=True)
+    constraint_weight: float = eqx.field(static=True)
+    patch_max_luminance: float | None = eqx.field(static=True)
+    terms: frozenset = eqx.field(static=True, default=frozenset(TERMS))
+
+    @classmethod
+    def build(cls, goals, power, *, energy_weight=0.0, constraint_weight=10.0,
+              patch_max_luminance=None) -> Objective:
+        grids = []
+        for g in goals:
+            ref = float(np.mean(g.target)) if g.target is not None else 1.0
+            grids.append(_GridTerm(
+                g.start, g.stop, None if g.target is None else jnp.asarray(g.target),
+                ref if ref > 0 else 1.0, g.weight, g.min_lux, g.max_lux, g.uniformity_min,
+                g.max_luminance_cdm2, g.rho,
+            ))
+        p = np.asarray(power, np.float64)
+        p = p / p.sum() if p.sum() > 0 else p
+        return cls(tuple(grids), jnp.asarray(p), float(energy_weight), float(constraint_weight),
+                   patch_max_luminance)
+
+    def only(self, *terms: str) -> Objective:
+        """The same objective restricted to some residual families (for tests and reports)."""
+        return eqx.tree_at(lambda o: o.terms, self, frozenset(terms))
+
+    def residuals(self, e: Float[Array, " points"], b: Float[Array, " patches"] | None,
+                  alpha: Float[Array, " net"]) -> Float[Array, " r"]:
+        c = self.constraint_weight
+        out = []
+        for g in self.grids:
+            eg = e[g.start:g.stop]
+            n = g.stop - g.start
+            if g.target is not None and "target" in self.terms and g.weight > 0:
+                out.append(jnp.sqrt(g.weight / n) * (eg - g.target) / g.target_ref)
+            if g.min_lux is not None and "min_lux" in self.terms and g.min_lux > 0:
+                out.append(jnp.sqrt(c / n) * _hinge(g.min_lux - eg) / g.min_lux)
+            if g.uniformity_min is not None and "uniformity_min" in self.terms:
+                avg = jnp.mean(eg)
+                safe = jnp.where(avg > 0, avg, 1.0)
+                out.append(jnp.sqrt(c / n) * jnp.where(avg > 0,
+                                                        _hinge(g.uniformity_min - eg / safe),
+                                                        g.uniformity_min))
+            if g.max_lux is not None and "max_lux" in self.terms:
+                out.append(jnp.sqrt(c / n) * _hinge(eg - g.max_lux) / g.max_lux)
+            if g.max_luminance is not None and "max_luminance_cdm2" in self.terms:
+                lum = g.rho * eg / jnp.pi
+                out.append(jnp.sqrt(c / n) * _hinge(lum - g.max_luminance) / g.max_luminance)
+        if (self.patch_max_luminance is not None and b is not None and b.size
+                and "patch_luminance" in self.terms):
+            lmax = self.patch_max_luminance
+            out.append(jnp.sqrt(c / b.size) * _hinge(b / jnp.pi - lmax) / lmax)
+        if self.energy_weight > 0 and "energy" in self.terms:
+            out.append(jnp.sqrt(self.energy_weight) * jnp.dot(alpha, self.power)[None])
+        if not out:
+            return jnp.zeros(1, e.dtype)
+        return jnp.concatenate(out)
+
+    def value(self, e, b, alpha) -> Array:
+        r = self.residuals(e, b, alpha)
+        return 0.5 * jnp.sum(r * r)
