@@ -1,6 +1,6 @@
 """``lumijax`` command line: a thin layer over the Python API.
 
-    lumijax run CONFIG [--out DIR] [--no-images] [--no-shadows]
+    lumijax run CONFIG [--out DIR] [--no-images] [--no-shadows] [--no-optimise]
     lumijax check CONFIG [--json]
     lumijax demo [--out DIR]
 
@@ -57,8 +57,28 @@ def _summary_table(results, console) -> None:
     console.print(table)
 
 
+def _optimisation_table(opt, console) -> None:
+    """Before/after statistics of each grid, and every goal the optimiser could not meet."""
+    from rich.table import Table
+
+    table = Table(title=f"optimisation ({opt.solver}, {opt.iterations} steps, objective "
+                        f"{opt.objective_history[0]:.4g} → {opt.objective_history[-1]:.4g})",
+                  title_justify="left")
+    for col in ("grid", "Eavg before", "Eavg after", "Emin before", "Emin after", "U0 before",
+                "U0 after"):
+        table.add_column(col, justify="left" if col == "grid" else "right")
+    for name, b in opt.before.items():
+        a = opt.after.get(name, b)
+        table.add_row(name, f"{b['avg']:.1f}", f"{a['avg']:.1f}", f"{b['min']:.1f}",
+                      f"{a['min']:.1f}", f"{b['u0']:.2f}", f"{a['u0']:.2f}")
+    console.print(table)
+    console.print("dimmers: " + ", ".join(f"{n} {v:.3f}" for n, v in opt.dimmers.items()))
+    for line in opt.unmet:
+        console.print(f"[yellow]not met:[/yellow] {line}")
+
+
 def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
-         cache_dir: Path | None = None) -> int:
+         cache_dir: Path | None = None, optimise: bool = True) -> int:
     from ._study import compute, load_study
     from .results import write_results
 
@@ -67,8 +87,14 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
     progress, update = _progress_bar(console, "lighting")
     with progress:
         results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir)
+    if optimise and study.config.optimise is not None:
+        from .optimise import optimise as fit
+
+        results = fit(study, results, cache_dir=cache_dir).results
     paths = write_results(results, out, images=images)
     _summary_table(results, console)
+    if results.optimisation is not None:
+        _optimisation_table(results.optimisation, console)
     n = results.counts.get("shadow_rays", 0)
     console.print(
         f"wrote {len(paths)} files to {out} in {time.perf_counter() - t0:.1f} s "
@@ -121,6 +147,8 @@ def _parser() -> argparse.ArgumentParser:
                      "name + '-out' beside it)")
     run.add_argument("--no-images", action="store_true", help="skip the false-colour images")
     run.add_argument("--no-shadows", action="store_true", help="ignore occlusion (photometry only)")
+    run.add_argument("--no-optimise", action="store_true",
+                     help="skip the [optimise] step of the config (docs/optimise.md)")
     check = sub.add_parser("check", help="validate a config and print what it holds")
     check.add_argument("config", type=Path)
     check.add_argument("--json", action="store_true", help="print a JSON summary")
@@ -152,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
         out = args.out if args.out is not None else args.config.with_name(
             args.config.stem + "-out")
         return _run(args.config, out, images=not args.no_images, shadows=not args.no_shadows,
-                    console=console)
+                    optimise=not args.no_optimise, console=console)
     except LumijaxError as e:
         print(f"lumijax: error: {e}", file=sys.stderr)
         return 1

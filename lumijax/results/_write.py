@@ -58,6 +58,11 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
             json.dumps(results.to_dict(), indent=1, allow_nan=False), encoding="utf-8"
         )
         written["results.json"] = Path("results.json")
+        if getattr(results, "optimisation", None) is not None:
+            # the optimised study, its file paths relative to where it will live
+            (staging / "optimised.toml").write_text(
+                results.optimisation.config_text(out_dir), encoding="utf-8")
+            written["optimised.toml"] = Path("optimised.toml")
         (staging / "grids").mkdir()
         for name, g in results.grids.items():
             (staging / "grids" / f"{name}.csv").write_text(
