@@ -1,5 +1,31 @@
-"""Reports: false-colour iso-lux maps (``_falsecolour``). Rendering imports pyvista lazily."""
+"""Pictures and the report: false-colour iso-lux maps of grids (``_falsecolour``), realistic and
+false-colour views of the lit surfaces (``_views``, ``_surfaces``, ``_tonemap``, ``_camera``),
+polar candela plots (``_polar``) and the self-contained ``report.html`` (``_html``).
+Rendering imports pyvista lazily; see ``docs/report.md``."""
 
+from ._camera import Camera, cameras_of, overview_camera
 from ._falsecolour import DEFAULT_CMAP, falsecolour_map, lux_to_rgb, make_view, nice_levels
+from ._html import grid_criteria, render_report, report_context, write_report
+from ._polar import beam_angle_deg, polar_plot
+from ._surfaces import SurfaceLight, surface_light
+from ._tonemap import auto_ev100, ev100, exposure_scale, tone_map
+from ._views import (
+    auto_exposure,
+    beam_outline,
+    fitting_colour,
+    render_falsecolour_view,
+    render_realistic,
+    view_colours,
+    write_png,
+)
 
-__all__ = ["falsecolour_map", "lux_to_rgb", "nice_levels", "make_view", "DEFAULT_CMAP"]
+__all__ = [
+    "falsecolour_map", "lux_to_rgb", "nice_levels", "make_view", "DEFAULT_CMAP",
+    "Camera", "cameras_of", "overview_camera",
+    "SurfaceLight", "surface_light",
+    "ev100", "exposure_scale", "auto_ev100", "tone_map",
+    "render_realistic", "render_falsecolour_view", "view_colours", "auto_exposure",
+    "fitting_colour", "beam_outline", "write_png",
+    "polar_plot", "beam_angle_deg",
+    "write_report", "report_context", "render_report", "grid_criteria",
+]

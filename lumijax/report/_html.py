@@ -1,0 +1,316 @@
+"""``report.html``: one self-contained file a lighting designer can hand to a client.
+
+Everything is inline: CSS in the page, pictures as base64 PNG data URIs. The page is a jinja2
+template (``templates/report.html.j2``); this module gathers what it shows: the study's summary,
+per-grid statistics against their targets, per-network dimmer, flux and power, the views of the
+cameras, the grids' iso-lux maps, the photometry and, after an optimisation, before and after.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import io
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._atomic import atomic_path
+from ..errors import LumijaxError, OutputError
+
+__all__ = ["write_report", "report_context", "render_report", "grid_criteria"]
+
+#: Pixel size of the pictures in the report (width, height).
+VIEW_SIZE = (1280, 800)
+MAP_SIZE = (1200, 820)
+
+
+def _data_uri(png: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
+def _fmt(x: float | None, digits: int = 3) -> str:
+    if x is None:
+        return "—"
+    x = float(x)
+    if x == 0:
+        return "0"
+    if abs(x) >= 100:
+        return f"{x:,.0f}"
+    return f"{x:.{digits}g}"
+
+
+def grid_criteria(grid_cfg, stats: dict[str, float]) -> list[dict[str, Any]]:
+    """The grid's design criteria from its config and whether its statistics meet them:
+    ``target_lux`` (Eavg ≥), ``min_lux`` (Emin ≥), ``max_lux`` (Emax ≤), ``uniformity_min``
+    (U0 ≥). Keys a config does not have are skipped."""
+    out = []
+    checks = (("target_lux", "Eavg", "avg", ">=", "lx"), ("min_lux", "Emin", "min", ">=", "lx"),
+              ("max_lux", "Emax", "max", "<=", "lx"), ("uniformity_min", "U0", "u0", ">=", ""))
+    for key, label, stat, op, unit in checks:
+        wanted = getattr(grid_cfg, key, None) if grid_cfg is not None else None
+        if wanted is None:
+            continue
+        got = stats[stat]
+        # 0.5 % slack: a design that reaches its target to the solver's accuracy meets it
+        met = got >= wanted * (1 - 5e-3) if op == ">=" else got <= wanted * (1 + 5e-3)
+        out.append({"key": key, "label": label, "op": "≥" if op == ">=" else "≤",
+                    "wanted": float(wanted), "achieved": float(got), "unit": unit,
+                    "met": bool(met),
+                    "text": f"{label} {'≥' if op == '>=' else '≤'} {_fmt(wanted)}"
+                            + (f" {unit}" if unit else "")})
+    return out
+
+
+def _grid_configs(study) -> dict[str, Any]:
+    return {g.name: g for g in getattr(study.config, "grids", [])}
+
+
+def _optimisation_dict(results) -> dict[str, Any] | None:
+    opt = getattr(results, "optimisation", None)
+    if opt is None:
+        return None
+    return opt if isinstance(opt, dict) else opt.to_dict()
+
+
+def _convergence_png(history) -> bytes | None:
+    h = np.asarray([float(x) for x in history if x is not None], np.float64)
+    if h.size < 2:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.0), dpi=110)
+    positive = np.all(h > 0)
+    ax.plot(np.arange(h.size), h, color="#1f4e79", lw=1.8, marker="o", ms=3)
+    if positive and h.max() / h.min() > 20:
+        ax.set_yscale("log")
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("objective")
+    ax.grid(color="#dddddd", lw=0.6)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _optimisation_section(opt: dict, study, results) -> dict[str, Any]:
+    before, after = opt.get("before", {}) or {}, opt.get("after", {}) or {}
+    grids = []
+    for name in list(before) + [n for n in after if n not in before]:
+        b, a = before.get(name, {}), after.get(name, {})
+        grids.append({"name": name, "rows": [
+            (label, _fmt(b.get(k)), _fmt(a.get(k)), unit)
+            for label, k, unit in (("Eavg", "avg", "lx"), ("Emin", "min", "lx"),
+                                   ("Emax", "max", "lx"), ("U0", "u0", ""), ("Ud", "ud", ""))
+            if k in b or k in a]})
+    start = {n.name: n.dimmer for n in study.scene.networks}
+    dimmers = [{"name": k, "before": _fmt(start.get(k)), "after": _fmt(v)}
+               for k, v in (opt.get("dimmers") or {}).items()]
+    aims = [{"name": k, **{a: _fmt(v.get(a)) for a in ("tilt", "pan", "spin")}}
+            for k, v in (opt.get("aims") or {}).items()]
+    targets = [{**t, "wanted": _fmt(t.get("wanted")), "achieved": _fmt(t.get("achieved"))}
+               for t in (opt.get("targets") or [])]
+    png = _convergence_png(opt.get("objective_history") or [])
+    hist = opt.get("objective_history") or []
+    return {
+        "solver": opt.get("solver", ""), "variables": ", ".join(opt.get("variables") or []),
+        "iterations": opt.get("iterations", len(hist)), "converged": opt.get("converged"),
+        "objective_start": _fmt(hist[0]) if hist else "—",
+        "objective_end": _fmt(hist[-1]) if hist else "—",
+        "grids": grids, "dimmers": dimmers, "aims": aims, "targets": targets,
+        "unmet": list(opt.get("unmet") or []),
+        "convergence": None if png is None else _data_uri(png),
+    }
+
+
+def _pictures(study, results, cameras, timings) -> tuple[list, list]:
+    from ._camera import cameras_of
+    from ._surfaces import surface_light
+    from ._views import png_bytes, render_falsecolour_view, render_realistic
+
+    views, notes = [], []
+    lighting = results.lighting
+    if lighting is None:
+        return views, ["No surfaces to draw: the results carry no lighting solution."]
+    cams = cameras if cameras is not None else cameras_of(study)
+    if not cams:
+        return views, notes
+    t0 = time.perf_counter()
+    need_e = any(c.kind == "falsecolour" and c.quantity == "illuminance" for c in cams)
+    surface = surface_light(results, illuminance=need_e)
+    dimmers = np.asarray(next(iter(results.grids.values())).dimmers, np.float64) if (
+        results.grids) else study.scene.dimmers
+    timings["surfaces"] = time.perf_counter() - t0
+    auto = len(cams) == 1 and cams[0].name == "overview" and not getattr(
+        study.config, "cameras", None)
+    for cam in cams:
+        t1 = time.perf_counter()
+        kinds = ["realistic", "falsecolour"] if auto else [cam.kind]
+        for kind in kinds:
+            if kind == "realistic":
+                img, ev = render_realistic(surface, cam, dimmers, study.scene)
+                caption = (f"Realistic view “{cam.name}”: {cam.fov_deg:g}° field of view, "
+                           f"exposure EV {ev:.1f} (ISO 100"
+                           f"{', metered' if cam.exposure_ev is None else ''}), "
+                           f"{cam.tone} tone curve.")
+            else:
+                q = cam.quantity
+                vals = surface.luminance_at(dimmers) if q == "luminance" else (
+                    surface.illuminance_at(dimmers))
+                img, (lo, hi) = render_falsecolour_view(
+                    surface, vals, cam, quantity=q, scale=cam.scale, levels=cam.levels,
+                    title=f"{'Luminance' if q == 'luminance' else 'Illuminance'} — {cam.name}")
+                unit = "cd/m²" if q == "luminance" else "lx"
+                caption = (f"False-colour {q} “{cam.name}”, {cam.scale} scale "
+                           f"{_fmt(lo)}–{_fmt(hi)} {unit}.")
+            views.append({"name": cam.name, "kind": kind, "src": _data_uri(png_bytes(img)),
+                          "caption": caption})
+        timings[f"view:{cam.name}"] = time.perf_counter() - t1
+    return views, notes
+
+
+def _grid_maps(results, timings) -> dict[str, str]:
+    from ._falsecolour import falsecolour_map
+
+    out = {}
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="lumijax-report-") as tmp:
+        for i, (name, g) in enumerate(results.grids.items()):
+            pts = np.asarray(g.points)
+            if len(pts) < 3:
+                continue
+            centred = pts - pts.mean(axis=0)
+            sv = np.linalg.svd(centred, compute_uv=False)
+            if sv[1] <= 1e-9 * max(sv[0], 1e-300):
+                continue
+            normal = np.asarray(g.normals).mean(axis=0)
+            path = Path(tmp) / f"{i}.png"
+            try:
+                falsecolour_map(pts, g.illuminance_lux, path, shape=g.shape,
+                                normal=normal if np.linalg.norm(normal) > 0 else None,
+                                title=f"{results.study} — {name}", window_size=MAP_SIZE)
+            except LumijaxError:
+                continue  # a grid that cannot be drawn still has its numbers in the table
+            out[name] = _data_uri(path.read_bytes())
+    timings["grid_maps"] = time.perf_counter() - t0
+    return out
+
+
+def report_context(study, results, *, cameras=None, pictures: bool = True,
+                   config_path: str | Path | None = None) -> dict[str, Any]:
+    """Everything ``report.html`` shows, as plain values (numbers already formatted)."""
+    from .. import __version__
+    from ._polar import beam_angle_deg, polar_plot
+
+    timings: dict[str, float] = {}
+    gcfg = _grid_configs(study)
+    ncfg = getattr(study.config, "networks", {}) or {}
+    grids = []
+    n_met = n_crit = 0
+    for name, g in results.grids.items():
+        s = g.stats
+        crit = grid_criteria(gcfg.get(name), s)
+        n_crit += len(crit)
+        n_met += sum(c["met"] for c in crit)
+        grids.append({
+            "name": name, "points": len(g.points),
+            "shape": "×".join(str(x) for x in g.shape) if g.shape else "points",
+            "avg": _fmt(s["avg"]), "min": _fmt(s["min"]), "max": _fmt(s["max"]),
+            "u0": f"{s['u0']:.2f}", "ud": f"{s['ud']:.2f}", "criteria": crit,
+            "raw": s,
+        })
+    networks, total_flux, total_power, any_power = [], 0.0, 0.0, False
+    for name, n in results.networks.items():
+        dimmer = float(n["dimmer"])
+        cfg = ncfg.get(name)
+        power_w = getattr(cfg, "power_w", None) if cfg is not None else None
+        any_power |= power_w is not None
+        flux = float(n["flux_lm"])
+        total_flux += flux * dimmer
+        if power_w is not None:
+            total_power += power_w * dimmer
+        networks.append({
+            "name": name, "description": getattr(cfg, "description", "") if cfg else "",
+            "count": len(n["luminaires"]), "dimmer": f"{100 * dimmer:.0f} %",
+            "dimmer_value": dimmer, "flux_full": _fmt(flux), "flux": _fmt(flux * dimmer),
+            "power_full": None if power_w is None else _fmt(power_w),
+            "power": None if power_w is None else _fmt(power_w * dimmer),
+        })
+    photometry = []
+    t0 = time.perf_counter()
+    for name, p in study.scene.photometries.items():
+        d = p.distribution
+        photometry.append({
+            "name": name, "file": p.source.name if p.source is not None else p.format,
+            "rated": _fmt(p.rated_lm), "integrated": _fmt(p.integrated_lm),
+            "peak": _fmt(d.peak_cd), "beam": f"{beam_angle_deg(d, 0):.0f}° × "
+                                             f"{beam_angle_deg(d, 90):.0f}°",
+            "count": sum(lum.photometry == name for lum in study.scene.luminaires),
+            "src": _data_uri(polar_plot(p, name)) if pictures else None,
+        })
+    timings["photometry"] = time.perf_counter() - t0
+    views, notes = _pictures(study, results, cameras, timings) if pictures else ([], [])
+    maps = _grid_maps(results, timings) if pictures else {}
+    for g in grids:
+        g["map"] = maps.get(g["name"])
+    opt = _optimisation_dict(results)
+    sc = study.scene
+    solver = results.solver or {}
+    return {
+        "title": results.study, "description": study.config.study.description,
+        "config": str(config_path or study.config.source or ""),
+        "generated": _dt.datetime.now().strftime("%Y-%m-%d %H:%M"), "version": __version__,
+        "summary": {
+            "luminaires": len(sc.luminaires) + len(sc.area_sources),
+            "networks": len(sc.networks), "grids": len(results.grids),
+            "points": sum(len(g.points) for g in results.grids.values()),
+            "flux": _fmt(total_flux), "power": _fmt(total_power) if any_power else None,
+            "criteria_met": n_met, "criteria": n_crit,
+            "patches": None if results.lighting is None or results.lighting.patches is None
+            else results.lighting.patches.n,
+            "compute_s": f"{results.timing_s.get('total', 0.0):.1f}",
+        },
+        "grids": grids, "networks": networks, "any_power": any_power,
+        "photometry": photometry, "views": views, "notes": notes,
+        "optimisation": None if opt is None else _optimisation_section(opt, study, results),
+        "solver": {k: v for k, v in solver.items() if k != "wavelengths_nm"},
+        "timings": timings,
+    }
+
+
+def render_report(context: dict[str, Any]) -> str:
+    """The HTML of a report context (the packaged jinja2 template)."""
+    import jinja2
+
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("lumijax.report", "templates"),
+        autoescape=jinja2.select_autoescape(["html", "j2"]),
+        undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+    )
+    return env.get_template("report.html.j2").render(**context)
+
+
+def write_report(study, results, path: str | Path, *, cameras=None, pictures: bool = True
+                 ) -> Path:
+    """Write ``report.html`` (self-contained) for computed ``results``; return its path.
+
+    ``cameras``: a list of :class:`Camera` (default: the config's ``[cameras]``, or an
+    automatic overview). ``pictures=False`` leaves out every image (tables only; fast).
+    """
+    path = Path(path)
+    if path.parent.exists() and not path.parent.is_dir():
+        raise OutputError("not a folder", file=path.parent)
+    ctx = report_context(study, results, cameras=cameras, pictures=pictures)
+    html = render_report(ctx)
+    with atomic_path(path, what="report", suffix=".html") as tmp:
+        Path(tmp).write_text(html, encoding="utf-8")
+    return path

@@ -1,0 +1,289 @@
+"""Perspective views of the lit surfaces: realistic (tone-mapped colour) and false colour.
+
+Both draw the view-independent radiosity solution unlit (``lighting=False``): a pixel's colour
+is the vertex colours interpolated, nothing else, so the picture is the numbers. Back faces are
+culled: a room seen from outside opens like a doll's house.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_path
+from ._camera import Camera
+from ._falsecolour import DEFAULT_CMAP, N_COLOURS, _cmap, _fmt, nice_levels
+from ._tonemap import auto_ev100, tone_map
+
+__all__ = ["render_realistic", "render_falsecolour_view", "png_bytes", "write_png", "in_view",
+           "auto_exposure",
+           "view_colours", "fitting_colour", "beam_outline"]
+
+BACKGROUND = "#15181e"  # a night sky: dark, slightly blue, so black shadows still read as shadow
+
+
+def _plotter(size):
+    import pyvista as pv
+
+    return pv.Plotter(off_screen=True, window_size=[int(size[0]), int(size[1])])
+
+
+def _place(pl, cam: Camera) -> None:
+    c = pl.camera
+    c.position = tuple(cam.position)
+    c.focal_point = tuple(cam.target)
+    c.up = tuple(cam.up)
+    c.view_angle = float(cam.fov_deg)  # VTK's view angle is the vertical field of view
+    pl.renderer.ResetCameraClippingRange()
+
+
+def _shot(pl) -> np.ndarray:
+    pl.render()
+    img = pl.screenshot(None, return_img=True, transparent_background=False)
+    return np.asarray(img)[..., :3]
+
+
+def view_colours(surface, dimmers, ev: float, tone: str = "filmic") -> np.ndarray:
+    """Display sRGB (uint8, (V, 3)) of the surface vertices at ``dimmers`` and exposure ``ev``."""
+    rgb = tone_map(surface.xyz_at(dimmers), ev, tone)
+    return np.round(rgb * 255.0).astype(np.uint8)
+
+
+def in_view(cam: Camera, points, normals) -> np.ndarray:
+    """Which points the camera sees (inside its frame, in front of it, front face towards it);
+    occlusion is not checked."""
+    pos = np.asarray(cam.position, np.float64)
+    f = np.asarray(cam.target, np.float64) - pos
+    f /= np.linalg.norm(f)
+    r = np.cross(f, np.asarray(cam.up, np.float64))
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    d = np.asarray(points, np.float64) - pos
+    z = d @ f
+    t = np.tan(np.radians(cam.fov_deg) / 2.0)
+    aspect = cam.size[0] / cam.size[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x, y = (d @ r) / z, (d @ u) / z
+    facing = np.einsum("ij,ij->i", np.asarray(normals, np.float64), -d) > 0
+    return (z > 0) & (np.abs(x) <= t * aspect) & (np.abs(y) <= t) & facing
+
+
+def auto_exposure(surface, dimmers, cam: Camera | None = None) -> float:
+    """Metered EV100 (``docs/report.md``): on the area-weighted median luminance of the lit
+    surfaces in view, but at least EV(L95) − 2, so the brightest 5 % (the lit facade of a
+    night scene) sit on the tone curve's shoulder instead of burning out."""
+    lum = surface.luminance_at(dimmers)
+    w = surface.vertex_area
+    if cam is not None:
+        seen = in_view(cam, surface.points, surface.normals)
+        if np.any(seen & (lum > 0)):
+            lum, w = lum[seen], w[seen]
+    return max(auto_ev100(lum, w), auto_ev100(lum, w, quantile=0.95) - 2.0)
+
+
+def fitting_colour(luminaire, dimmer: float) -> np.ndarray:
+    """sRGB (in [0, 1]) of a fitting's glowing face: its lamp's chromaticity, as bright as a
+    display allows, fading to the dark body colour as its dimmer goes to 0."""
+    import colour
+
+    lin = np.ones(3)
+    spectrum = getattr(luminaire, "spectrum", None)
+    if spectrum is not None:
+        from ..spectral import tristimulus
+
+        lin = np.maximum(np.asarray(colour.XYZ_to_sRGB(tristimulus(spectrum),
+                                                       apply_cctf_encoding=False)), 0.0)
+        lin = lin / max(float(lin.max()), 1e-12)
+    body = np.full(3, 0.02)
+    d = float(np.clip(dimmer, 0.0, 1.0))
+    lin = body + (lin - body) * d ** 0.5  # perceptual fade: half-dimmed still glows
+    return np.asarray(colour.cctf_encoding(np.clip(lin, 0, 1), function="sRGB"), np.float64)
+
+
+def beam_outline(distribution, n_azimuth: int = 36) -> tuple[np.ndarray, np.ndarray]:
+    """``(peak direction (3,), rim directions (n, 3))`` in the luminaire frame: around the
+    direction of peak intensity, the angle at which intensity first falls to half the peak
+    (the half-peak "beam angle" edge, IES LM-63's definition), per azimuth."""
+    import jax.numpy as jnp
+
+    peak, h, v = distribution.max_intensity()
+    p = np.asarray(distribution.direction(h, v), np.float64)
+    p = p / np.linalg.norm(p)
+    a = np.array([1.0, 0.0, 0.0]) if abs(p[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(p, a)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(p, e1)
+    theta = np.radians(np.linspace(0.0, 90.0, 361))
+    phi = np.linspace(0.0, 2 * np.pi, n_azimuth, endpoint=False)
+    ring = np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2  # (A, 3)
+    d = (np.cos(theta)[None, :, None] * p + np.sin(theta)[None, :, None] * ring[:, None, :])
+    cd = np.asarray(distribution.intensity(jnp.asarray(d)), np.float64)
+    below = cd < 0.5 * peak
+    idx = np.where(below.any(axis=1), below.argmax(axis=1), len(theta) - 1)
+    rim = d[np.arange(len(phi)), idx]
+    return p, rim
+
+
+def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = True) -> None:
+    """Luminaires as small glowing fittings (a dark can with a face in the lamp's colour),
+    area sources as glowing rectangles; with ``markers``, aim lines and half-peak beam cones."""
+    import pyvista as pv
+
+    dist = float(np.linalg.norm(np.subtract(cam.position, cam.target)))
+    r = float(np.clip(0.008 * dist, 0.04, 0.4))
+    level = dict(zip(scene.network_names, np.asarray(dimmers, np.float64), strict=True))
+    beams: dict[str, tuple] = {}
+    for lum in scene.luminaires:
+        axis = lum.axis / np.linalg.norm(lum.axis)
+        pos = np.asarray(lum.position, np.float64)
+        can = pv.Cylinder(center=pos - axis * 0.6 * r, direction=axis, radius=r, height=1.2 * r,
+                          resolution=24)
+        pl.add_mesh(can, color=(0.12, 0.12, 0.13), lighting=False)
+        face = pv.Disc(center=pos + axis * 1e-3 * r, normal=axis, inner=0.0, outer=0.85 * r,
+                       c_res=24)
+        pl.add_mesh(face, color=fitting_colour(lum, level[lum.network]), lighting=False)
+        if not markers:
+            continue
+        length = 3.0 * dist / 10.0
+        if raycast:
+            _, hit = scene.raycaster.first_hit(pos[None], axis[None])
+            if np.isfinite(hit[0]):
+                length = float(hit[0])
+        pl.add_mesh(pv.Line(pos, pos + axis * length), color="#ffd54a", line_width=2,
+                    lighting=False)
+        if lum.photometry not in beams:
+            beams[lum.photometry] = beam_outline(scene.photometries[lum.photometry].distribution)
+        _, rim = beams[lum.photometry]
+        rim_world = pos + (rim @ lum.rotation.T) * length
+        pts = np.vstack([pos, rim_world])
+        n = len(rim_world)
+        tris = np.column_stack([np.full(n, 3), np.zeros(n, int), 1 + np.arange(n),
+                                1 + (np.arange(n) + 1) % n]).ravel()
+        pl.add_mesh(pv.PolyData(pts, faces=tris), color="#ffd54a", opacity=0.18,
+                    lighting=False)
+        ring = np.column_stack([np.full(n, 2), 1 + np.arange(n), 1 + (np.arange(n) + 1) % n])
+        pl.add_mesh(pv.PolyData(pts, lines=ring.ravel()), color="#ffd54a", line_width=1,
+                    lighting=False)
+    for a in scene.area_sources:
+        quad = pv.PolyData(np.array([a.origin, a.origin + a.u, a.origin + a.u + a.v,
+                                     a.origin + a.v]), faces=[4, 0, 1, 2, 3])
+        pl.add_mesh(quad, color=fitting_colour(a, level[a.network]), lighting=False,
+                    culling="back")
+
+
+def render_realistic(surface, cam: Camera, dimmers, scene=None, *, ev: float | None = None,
+                     tone: str | None = None, markers: bool | None = None) -> tuple[np.ndarray,
+                                                                                    float]:
+    """A photo-like view: ``(image (H, W, 3) uint8, EV100 used)``.
+
+    Exposure: ``ev``, else the camera's ``exposure_ev``, else metered (:func:`auto_exposure`).
+    ``scene`` adds the luminaires (and, with ``markers``, their aim lines and beam cones).
+    """
+    if ev is None:
+        ev = cam.exposure_ev if cam.exposure_ev is not None else auto_exposure(
+            surface, dimmers, cam)
+    mesh = surface.polydata()
+    mesh.point_data["rgb"] = view_colours(surface, dimmers, ev, tone or cam.tone)
+    pl = _plotter(cam.size)
+    try:
+        pl.set_background(BACKGROUND)
+        pl.add_mesh(mesh, scalars="rgb", rgb=True, lighting=False, culling="back",
+                    show_scalar_bar=False)
+        if scene is not None:
+            _fittings(pl, scene, dimmers, cam, cam.markers if markers is None else markers)
+        _place(pl, cam)
+        return _shot(pl), float(ev)
+    finally:
+        pl.close()
+
+
+def _range(values: np.ndarray, scale: str) -> tuple[float, float]:
+    v = values[np.isfinite(values)]
+    hi = float(np.percentile(v, 99.5)) if v.size else 1.0
+    hi = hi if hi > 0 else 1.0
+    if scale == "log":
+        pos = v[v > 0]
+        lo = max(float(np.percentile(pos, 2)) if pos.size else hi * 1e-3, hi * 1e-3)
+        return (lo, hi) if hi > lo else (hi / 10.0, hi)
+    return 0.0, hi
+
+
+def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str = "luminance",
+                            scale: str = "log", levels=None, clim=None, cmap=DEFAULT_CMAP,
+                            title: str | None = None) -> tuple[np.ndarray, tuple[float, float]]:
+    """A false-colour perspective view of per-vertex ``values`` on a surface.
+
+    ``points_faces`` is a :class:`SurfaceLight` (or anything with ``polydata()``); ``values``
+    are cd/m² (``quantity="luminance"``) or lx (``"illuminance"``), one per vertex. Returns
+    ``(image, (vmin, vmax))``; a vertex's colour is :func:`lux_to_rgb` of its value on that
+    range (log: values below vmin take the lowest colour).
+    """
+    vals = np.asarray(values, np.float64)
+    vmin, vmax = (float(c) for c in clim) if clim is not None else _range(vals, scale)
+    if levels is None:
+        levels = nice_levels(vmin, vmax, scale, max_levels=7)
+    levels = [float(x) for x in levels if vmin < float(x) < vmax]
+    unit = "cd/m²" if quantity == "luminance" else "lx"
+    name = "Luminance" if quantity == "luminance" else "Illuminance"
+    mesh = points_faces.polydata()
+    mesh.point_data["value"] = np.maximum(vals, vmin) if scale == "log" else vals
+    w, h = cam.size
+    font = max(10, int(round(h / 50)))
+    pl = _plotter(cam.size)
+    try:
+        pl.set_background("white")
+        pl.add_mesh(
+            mesh, scalars="value", cmap=_cmap(cmap), clim=(vmin, vmax),
+            log_scale=scale == "log", n_colors=N_COLOURS, interpolate_before_map=True,
+            lighting=False, culling="back",
+            scalar_bar_args=dict(
+                title=f"{name} ({unit})", vertical=True, position_x=0.88, position_y=0.1,
+                width=0.04, height=0.78, unconstrained_font_size=True,
+                title_font_size=font + 1, label_font_size=font, color="black",
+                font_family="arial", fmt="%.3g"),
+        )
+        if levels:
+            bar = pl.scalar_bar
+            from vtkmodules.vtkCommonCore import vtkDoubleArray
+
+            arr = vtkDoubleArray()
+            for level in levels:
+                arr.InsertNextValue(level)
+            bar.SetUseCustomLabels(True)
+            bar.SetCustomLabels(arr)
+            bar.SetLabelFormat("%.3g")
+            lines = mesh.contour(levels, scalars="value")
+            if lines.n_points:
+                pl.add_mesh(lines, color="black", line_width=max(1, h // 600), lighting=False)
+        if title:
+            pl.add_text(title, position=(int(0.02 * w), int(0.94 * h)), font_size=font + 2,
+                        color="black", font="arial")
+        note = f"{name} ({unit}), {'log' if scale == 'log' else 'linear'} scale"
+        if levels:
+            note += "; iso-lines at " + ", ".join(_fmt(x) for x in levels) + f" {unit}"
+        pl.add_text(note, position=(int(0.02 * w), int(0.905 * h)), font_size=font - 2,
+                    color="#444444", font="arial")
+        _place(pl, cam)
+        return _shot(pl), (vmin, vmax)
+    finally:
+        pl.close()
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """PNG encoding of an (H, W, 3|4) uint8 image."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.asarray(image, np.uint8)).save(buf, format="PNG", optimize=False)
+    return buf.getvalue()
+
+
+def write_png(image: np.ndarray, path: str | os.PathLike) -> Path:
+    """Write an image atomically as PNG."""
+    path = Path(path)
+    with atomic_path(path, what="image", suffix=".png") as tmp:
+        Path(tmp).write_bytes(png_bytes(image))
+    return path
