@@ -106,3 +106,58 @@ def test_blocker_casts_partial_shadow(write_study):
     full = compute(load_study(path), shadows=False)["g"].illuminance_lux[0]
     # the strip covers x < 0 at z = 0.5: from (0,0,0) it hides exactly the panel's x < 0 half
     np.testing.assert_allclose(res / full, 0.5, atol=0.06)
+
+
+def _corner_factor(a, b, c):
+    """Catalogue §1: point under a corner of a parallel a × b rectangle at height c."""
+    x, y = a / c, b / c
+    return (x / np.sqrt(1 + x * x) * np.arctan(y / np.sqrt(1 + x * x))
+            + y / np.sqrt(1 + y * y) * np.arctan(x / np.sqrt(1 + y * y))) / (2 * np.pi)
+
+
+def test_occluder_hiding_one_quadrant_exactly(write_study):
+    """A 0.5 m square at half height hides exactly one quadrant of a 2 × 2 m panel 2 m above
+    the receiver: E = M · 3 · F_corner(1, 1, 2). Its shadow edge lies on the panel's pieces,
+    so the adaptive subdivision must give the closed form to rounding."""
+    extra = """
+        [materials.m]
+        reflectance = 0.3
+        [[geometry]]
+        kind = "rectangle"
+        origin = [0, 0, 1]
+        u = [0.5, 0, 0]
+        v = [0, 0.5, 0]
+        material = "m"
+    """
+    path = _study(write_study, (-1, -1, 2), (0, 2, 0), (2, 0, 0), [(0, 0, 0)], [(0, 0, 1)],
+                  extra)
+    e = compute(load_study(path))["g"].illuminance_lux[0]
+    np.testing.assert_allclose(e, FLUX / 4 * 3 * _corner_factor(1, 1, 2), rtol=1e-9)
+
+
+def test_unobstructed_panel_needs_no_ray(write_study):
+    """Receivers on a floor under a ceiling panel 1 mm below the ceiling: nothing penetrates
+    their view of the panel, so the light is the exact contour integral and no ray is cast."""
+    from lumijax.direct import direct_illuminance
+
+    extra = """
+        [materials.m]
+        reflectance = 0.3
+        [[geometry]]
+        kind = "box"
+        min = [-2, -2, 0]
+        max = [2, 2, 2]
+        normals = "inward"
+        material = "m"
+    """
+    pts = [(x, y, 0.0) for x in (-1.9, -0.3, 0.0, 1.2) for y in (-1.0, 0.4, 1.9)]
+    path = _study(write_study, (-2, -2, 1.999), (0, 4, 0), (4, 0, 0), pts, [(0, 0, 1)] * 12,
+                  extra)
+    scene = load_study(path).scene
+    d = direct_illuminance(scene, np.array(pts), np.tile([0.0, 0, 1], (12, 1)))
+    assert d.shadow_rays == 0
+    x, y = np.array(pts)[:, 0], np.array(pts)[:, 1]
+    c = 1.999
+    # four rectangles meeting under the receiver
+    f = sum(_corner_factor(a, b, c) for a in (2 - x, 2 + x) for b in (2 - y, 2 + y))
+    np.testing.assert_allclose(d.by_network[0], FLUX / 16 * f, rtol=1e-9)
