@@ -3,7 +3,10 @@
 Each input triangle is split by a regular barycentric grid into n² congruent sub-triangles, with
 n = ceil(longest edge / patch_size). Every patch is therefore a triangle with the orientation (and
 so the front face, see ``docs/conventions.md``) of its source triangle, and every patch of one
-triangle has the same area, which keeps the radiosity system well scaled.
+triangle has the same area, which keeps the radiosity system well scaled. Slivers are the
+exception: the grid would cut them into n² needles, so they are bisected along their longest
+edge instead, down to half a nominal patch's area (pieces of one triangle then differ in area by
+powers of two, and a needle's pieces may be longer than the patch size).
 """
 
 from __future__ import annotations
@@ -96,6 +99,36 @@ def subdivide_triangles(
     return v0 + w[None, ..., 0:1] * e1 + w[None, ..., 1:2] * e2
 
 
+#: A triangle whose longest edge exceeds this many times its height is bisected, not gridded.
+_SLIVER_ASPECT = 3.0
+
+
+def bisect_triangles(
+    triangles: Float[np.ndarray, "tri 3 3"], source: Int[np.ndarray, " tri"], size: float
+) -> tuple[Float[np.ndarray, "sub 3 3"], Int[np.ndarray, " sub"]]:
+    """Halve triangles at the midpoint of their longest edge until no edge exceeds ``size``, or
+    a piece is down to ``size²/8`` (half the area of a nominal patch, ``size²/4``): cutting a
+    needle thinner only multiplies patches.
+
+    The vertex order is rotated cyclically before the cut, so both halves keep the parent's
+    orientation (front face); the halves have equal areas.
+    """
+    tri, src = np.asarray(triangles, np.float64), np.asarray(source, np.int64)
+    done_v, done_s = [], []
+    while len(tri):
+        e = np.linalg.norm(np.roll(tri, -1, axis=1) - tri, axis=-1)  # edge i: vertex i → i+1
+        a = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        ok = (e.max(axis=1) <= size * (1 + 1e-9)) | (a <= size**2 / 8)
+        done_v.append(tri[ok])
+        done_s.append(src[ok])
+        tri, src, j = tri[~ok], src[~ok], e[~ok].argmax(axis=1)
+        r = np.take_along_axis(tri, ((np.arange(3) + j[:, None]) % 3)[:, :, None], axis=1)
+        m = 0.5 * (r[:, 0] + r[:, 1])
+        tri = np.concatenate([np.stack([r[:, 0], m, r[:, 2]], 1), np.stack([m, r[:, 1], r[:, 2]], 1)])
+        src = np.concatenate([src, src])
+    return np.concatenate(done_v), np.concatenate(done_s)
+
+
 def mesh_patches(
     triangles: Float[np.ndarray, "tri 3 3"],
     material: Int[np.ndarray, " tri"] | None = None,
@@ -112,7 +145,9 @@ def mesh_patches(
         ``(T,)`` per-triangle material index and user group id (−1 for none); default 0 and −1.
     patch_size
         Target longest edge of a patch, m. A triangle whose longest edge is L is cut into
-        ceil(L / patch_size)² congruent patches.
+        ceil(L / patch_size)² congruent patches; a sliver (L > 3 × its height) is instead
+        halved along its longest edge until every piece is shorter than ``patch_size`` or
+        smaller than ``patch_size²/8`` in area.
 
     Raises
     ------
@@ -153,9 +188,17 @@ def mesh_patches(
             key=f"triangles[{i}]",
         )
     nsub = np.maximum(1, np.ceil(longest / patch_size - 1e-9)).astype(np.int64)
+    # Slivers (a column face, a cornice band) would give n² needle patches under the regular
+    # grid, n set by their length alone: bisect them along their longest edge instead, which
+    # costs about 2·length/patch_size patches.
+    sliver = (nsub > 1) & (longest**2 > _SLIVER_ASPECT * 2.0 * area)
     out_v, out_src = [], []
-    for n in np.unique(nsub):
-        idx = np.flatnonzero(nsub == n)
+    if sliver.any():
+        v, s = bisect_triangles(tri[sliver], np.flatnonzero(sliver), patch_size)
+        out_v.append(v)
+        out_src.append(s)
+    for n in np.unique(nsub[~sliver]):
+        idx = np.flatnonzero((nsub == n) & ~sliver)
         sub = subdivide_triangles(tri[idx], int(n))  # (k, n², 3, 3)
         out_v.append(sub.reshape(-1, 3, 3))
         out_src.append(np.repeat(idx, n * n))

@@ -135,12 +135,16 @@ def test_demo_runs_the_bundled_study(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out)]) == 0
     res = json.loads((out / "results.json").read_text())
-    assert set(res["grids"]) == {"facade", "courtyard"}
-    assert set(res["networks"]) == {"wash", "pilasters", "accent"}
+    # the courtyard corner: two facades (S, E), per facade and kind a network, plus two
+    assert set(res["grids"]) == {"S-wall", "S-columns", "E-wall", "E-columns", "court",
+                                 "paths-eye"}
+    assert set(res["networks"]) == {f"{f}-{k}" for f in "SE"
+                                    for k in ("wash", "attic", "columns", "windows")} | {
+                                        "floods", "paths"}
     for name in res["grids"]:
         assert (out / "images" / f"{name}.png").stat().st_size > 10_000
         assert res["grids"][name]["stats"]["avg"] > 0
-    assert "facade" in capsys.readouterr().out
+    assert "S-wall" in capsys.readouterr().out
 
 
 def test_tiny_point_grid_has_numbers_but_no_map(write_study, tmp_path):

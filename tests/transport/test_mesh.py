@@ -26,6 +26,19 @@ def test_subdivision_keeps_area_normal_and_size():
     assert set(p.source_triangle) == {0, 1}
 
 
+def test_slivers_are_bisected_not_gridded():
+    """A 6 × 0.2 m band at 1 m patches: the n² grid would give 2 × 7² = 98 needles; halving
+    along the longest edge stops at pieces shorter than 1 m or below 1/8 m²."""
+    tri = quad([0, 0, 0], [6, 0, 0], [0, 0.2, 0])
+    p = mesh_patches(tri, patch_size=1.0)
+    assert p.area.sum() == pytest.approx(1.2)
+    n = np.cross(p.vertices[:, 1] - p.vertices[:, 0], p.vertices[:, 2] - p.vertices[:, 0])
+    assert np.all(n[:, 2] > 0)
+    assert np.all((p.diameter <= 1.0 + 1e-12) | (p.area <= 1 / 8))
+    assert np.all(p.area > 1 / 16)  # never cut below half the stopping area
+    assert 2 * 6 <= p.n <= 2 * 12  # at least one per metre, about two per metre per triangle
+
+
 @pytest.mark.parametrize("bad", ["nan", "zero"])
 def test_degenerate_triangles_are_named(bad):
     tri = np.concatenate([quad([0, 0, 0], [1, 0, 0], [0, 1, 0]), np.zeros((1, 3, 3))])
