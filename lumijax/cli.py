@@ -1,8 +1,10 @@
 """``lumijax`` command line: a thin layer over the Python API.
 
-    lumijax run CONFIG [--out DIR] [--no-images] [--no-shadows] [--no-optimise]
+    lumijax run CONFIG [--out DIR] [--no-images] [--no-shadows] [--no-optimise] [--no-report]
     lumijax check CONFIG [--json]
-    lumijax demo [--out DIR]
+    lumijax report CONFIG [--out DIR] [--no-pictures]
+    lumijax view CONFIG [--web] [--host HOST] [--port PORT] [--camera NAME]
+    lumijax demo [--out DIR] [--no-report]
 
 Errors from bad input are printed as one line naming the file and key, without a traceback, and
 the exit status is 1 (2 for a bad command line).
@@ -78,7 +80,7 @@ def _optimisation_table(opt, console) -> None:
 
 
 def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
-         cache_dir: Path | None = None, optimise: bool = True) -> int:
+         cache_dir: Path | None = None, optimise: bool = True, report: bool = True) -> int:
     from ._study import compute, load_study
     from .results import write_results
 
@@ -95,11 +97,74 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
     _summary_table(results, console)
     if results.optimisation is not None:
         _optimisation_table(results.optimisation, console)
+    if report:
+        from .report import write_report
+
+        t1 = time.perf_counter()
+        paths["report.html"] = write_report(study, results, out / "report.html",
+                                            pictures=images)
+        console.print(f"report: {paths['report.html']} ({time.perf_counter() - t1:.1f} s)")
     n = results.counts.get("shadow_rays", 0)
     console.print(
         f"wrote {len(paths)} files to {out} in {time.perf_counter() - t0:.1f} s "
         f"({n:,} shadow rays)"
     )
+    return 0
+
+
+def _report(config: Path, out: Path, *, pictures: bool, console) -> int:
+    """Compute the study as configured (the operator cache makes this quick) and write
+    ``report.html``; ``lumijax run`` writes the same report after results and optimisation."""
+    from ._study import compute, load_study
+    from .report import write_report
+
+    t0 = time.perf_counter()
+    study = load_study(config)
+    progress, update = _progress_bar(console, "lighting")
+    with progress:
+        results = compute(study, progress=update)
+    path = write_report(study, results, out / "report.html", pictures=pictures)
+    console.print(f"wrote {path} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def _view(config: Path, *, web: bool, host: str, port: int, camera: str | None,
+          console) -> int:
+    """The live dimmer viewer: a desktop window, or (``web``) a page served on ``host:port``."""
+    from ._study import compute, load_study
+    from .errors import OutputError
+
+    if web:
+        from .view._web import _require_trame
+
+        _require_trame()  # fail before the compute, naming the extra to install
+    study = load_study(config)
+    cam = None
+    if camera is not None:
+        from .report import cameras_of
+
+        cams = {c.name: c for c in cameras_of(study)}
+        if camera not in cams:
+            raise OutputError(f"no camera {camera!r}; cameras: {', '.join(cams)}",
+                              file=config, key="cameras")
+        cam = cams[camera]
+    progress, update = _progress_bar(console, "lighting")
+    with progress:
+        results = compute(study, progress=update)
+    from .view import build_viewer
+
+    if web:
+        from .view import serve
+
+        viewer = build_viewer(study, results, off_screen=True, camera=cam, widgets=False)
+        console.print("serving the viewer (Ctrl-C to stop)")
+        serve(viewer, host=host, port=port)
+        return 0
+    try:
+        viewer = build_viewer(study, results, camera=cam)
+        viewer.plotter.show()
+    except RuntimeError as e:  # no display: VTK cannot open a window
+        raise OutputError(f"cannot open a window ({e}); try 'lumijax view --web'") from None
     return 0
 
 
@@ -149,11 +214,26 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--no-shadows", action="store_true", help="ignore occlusion (photometry only)")
     run.add_argument("--no-optimise", action="store_true",
                      help="skip the [optimise] step of the config (docs/optimise.md)")
+    run.add_argument("--no-report", action="store_true", help="do not write report.html")
+    report = sub.add_parser("report", help="compute a study and write report.html")
+    report.add_argument("config", type=Path)
+    report.add_argument("--out", type=Path, default=None, help="output folder (default: "
+                        "CONFIG's name + '-out' beside it)")
+    report.add_argument("--no-pictures", action="store_true",
+                        help="tables only: no views, maps or plots (fast)")
+    view = sub.add_parser("view", help="the live dimmer viewer (one slider per network)")
+    view.add_argument("config", type=Path)
+    view.add_argument("--web", action="store_true",
+                      help="serve the viewer to a browser (needs: pip install 'lumijax[view]')")
+    view.add_argument("--host", default="127.0.0.1", help="address to serve on (--web)")
+    view.add_argument("--port", type=int, default=0, help="port (--web); 0: a free one")
+    view.add_argument("--camera", default=None, help="a [cameras.NAME] to start from")
     check = sub.add_parser("check", help="validate a config and print what it holds")
     check.add_argument("config", type=Path)
     check.add_argument("--json", action="store_true", help="print a JSON summary")
     demo = sub.add_parser("demo", help="run the bundled default study")
     demo.add_argument("--out", type=Path, default=Path("lumijax-demo"))
+    demo.add_argument("--no-report", action="store_true", help="do not write report.html")
     return p
 
 
@@ -176,11 +256,17 @@ def main(argv: list[str] | None = None) -> int:
             console.print(f"lumijax demo: {default_study_path()}")
             # the bundled study may sit in a read-only install: cache beside the outputs
             return _run(default_study_path(), args.out, images=True, shadows=True,
-                        console=console, cache_dir=args.out / ".lumijax-cache")
+                        console=console, cache_dir=args.out / ".lumijax-cache",
+                        report=not args.no_report)
+        if args.command == "view":
+            return _view(args.config, web=args.web, host=args.host, port=args.port,
+                         camera=args.camera, console=console)
         out = args.out if args.out is not None else args.config.with_name(
             args.config.stem + "-out")
+        if args.command == "report":
+            return _report(args.config, out, pictures=not args.no_pictures, console=console)
         return _run(args.config, out, images=not args.no_images, shadows=not args.no_shadows,
-                    optimise=not args.no_optimise, console=console)
+                    optimise=not args.no_optimise, report=not args.no_report, console=console)
     except LumijaxError as e:
         print(f"lumijax: error: {e}", file=sys.stderr)
         return 1
