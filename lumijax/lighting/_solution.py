@@ -100,8 +100,9 @@ class LightingSolution:
         """The solution with luminaire ``index`` replaced (moved, re-aimed, re-lamped, …).
 
         Only the difference is re-shot: the old and new luminaire's direct light on patches and
-        points, one solve of ``(I − ρF) ΔB = ρ ΔE`` over the sample wavelengths, and one
-        gather. The result equals a full re-solve up to the solver's tolerance. The network
+        points (that luminaire's candidate pairs only), one solve of ``(I − ρF) ΔB = ρ ΔE``
+        over the sample wavelengths (one column per wavelength when network and spectrum stay,
+        two otherwise), and one gather. The result equals a full re-solve up to the solver's tolerance. The network
         and the spectrum may change too.
         """
         sc = self.scene
@@ -116,23 +117,32 @@ class LightingSolution:
         for name in ("radiosity_xyz", "point_xyz"):
             arr = getattr(self, name)
             upd[name] = None if arr is None else arr.copy()
+        # direct light of the old and new luminaire alone (its candidate pairs only)
+        rows = []
         for lum, sign in ((old, -1.0), (luminaire, 1.0)):
-            k = names.index(lum.network)
             one = dataclasses.replace(
                 sc, luminaires=(dataclasses.replace(lum, network=names[0]),), area_sources=())
-            e_pts = direct_illuminance(one, self.points, self.normals).by_network[0]
-            upd["point_direct"][k] += sign * e_pts
-            if self.patches is None:
-                continue
-            e_patch = direct_illuminance(one, self.patches.centroid,
-                                         self.patches.normal).by_network[0]
-            upd["patch_direct"][k] += sign * e_patch
-            shot = shoot(self, e_patch[None], [lum.spectrum], e_pts[None])
-            upd["radiosity"][k] += sign * shot.radiosity[0]
-            upd["point_indirect"][k] += sign * shot.point_indirect[0]
-            if upd["point_xyz"] is not None:
-                upd["radiosity_xyz"][k] += sign * shot.radiosity_xyz[0]
-                upd["point_xyz"][k] += sign * shot.point_xyz[0]
+            e_pts = sign * direct_illuminance(one, self.points, self.normals).by_network[0]
+            e_patch = None if self.patches is None else sign * direct_illuminance(
+                one, self.patches.centroid, self.patches.normal).by_network[0]
+            rows.append([names.index(lum.network), lum.spectrum, e_pts, e_patch])
+        # same network and spectrum: one difference row, so one solve of W columns, not two
+        if rows[0][0] == rows[1][0] and rows[0][1] is rows[1][1]:
+            rows = [[rows[0][0], rows[0][1], rows[0][2] + rows[1][2],
+                     None if self.patches is None else rows[0][3] + rows[1][3]]]
+        for k, _, e_pts, e_patch in rows:
+            upd["point_direct"][k] += e_pts
+            if e_patch is not None:
+                upd["patch_direct"][k] += e_patch
+        if self.patches is not None:
+            shot = shoot(self, np.stack([r[3] for r in rows]), [r[1] for r in rows],
+                         np.stack([r[2] for r in rows]))
+            for q, (k, *_rest) in enumerate(rows):
+                upd["radiosity"][k] += shot.radiosity[q]
+                upd["point_indirect"][k] += shot.point_indirect[q]
+                if upd["point_xyz"] is not None:
+                    upd["radiosity_xyz"][k] += shot.radiosity_xyz[q]
+                    upd["point_xyz"][k] += shot.point_xyz[q]
         stats = dict(self.stats, incremental_s=time.perf_counter() - t0)
         return dataclasses.replace(self, scene=new_scene, stats=stats, **upd)
 
