@@ -133,7 +133,10 @@ def main(argv=None) -> None:
                  lambda pa: _part_note(pa))
     op = stage("operator build", lambda: build_operator(patches, part, caster,
                                                         dtype=np.float32),
-               lambda o: f"{o.nbytes / 2**30:.2f} GiB stored")
+               lambda o: f"{o.nbytes / 2**30:.2f} GiB stored ({o.lowrank_nbytes / 2**30:.2f} low "
+                         f"rank); {o.info['near_pairs']:,} near patch pairs, "
+                         f"{o.info['lowrank_pairs']}/{o.info['lowrank_candidates']} block pairs "
+                         f"low rank, {o.info['rays']:,} rays ({o.info['ray_time_s']:.0f} s)")
     st["operator_bytes"] = op.nbytes
     dpatch = stage("direct light, patches",
                    lambda: direct_illuminance(gscene, patches.centroid, patches.normal),
@@ -173,10 +176,8 @@ def main(argv=None) -> None:
 
 
 def _part_note(pa) -> str:
-    try:
-        return f"{len(pa.blocks)} blocks, {len(pa.pairs)} visible block pairs"
-    except AttributeError:
-        return ""
+    return (f"{pa.n_blocks} blocks, {len(pa.pairs)} visible block pairs of "
+            f"{pa.stats.get('candidate_pairs', '?')}")
 
 
 def _table(rows, c, st) -> None:
