@@ -255,9 +255,17 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
             bar.SetUseCustomLabels(True)
             bar.SetCustomLabels(arr)
             bar.SetLabelFormat("%.3g")
-            lines = mesh.contour(levels, scalars="value")
+            # lift the lines off the surface towards its front (the side drawn) so that the
+            # surface never hides them
+            with_n = mesh.compute_normals(cell_normals=False, point_normals=True,
+                                          split_vertices=False, consistent_normals=False,
+                                          auto_orient_normals=False)
+            lines = with_n.contour(levels, scalars="value")
             if lines.n_points:
-                pl.add_mesh(lines, color="black", line_width=max(1, h // 600), lighting=False)
+                lift = 2e-3 * float(np.linalg.norm(np.subtract(cam.position, cam.target)))
+                lines.points = np.asarray(lines.points) + lift * np.asarray(
+                    lines.point_data["Normals"])
+                pl.add_mesh(lines, color="black", line_width=max(2, h // 400), lighting=False)
         if title:
             pl.add_text(title, position=(int(0.02 * w), int(0.94 * h)), font_size=font + 2,
                         color="black", font="arial")

@@ -1,0 +1,108 @@
+"""The report and view subcommands, the report step of ``run``, and ``[cameras]`` errors."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from lumijax.cli import main
+from lumijax.config import parse_config
+from lumijax.errors import ConfigError
+
+ROOM = """
+[study]
+name = "cli report room"
+[solver]
+indirect = false
+[materials.wall]
+reflectance = 0.5
+[photometry.iso]
+kind = "isotropic"
+flux_lm = 2000
+[networks.a]
+dimmer = 0.5
+[[geometry]]
+kind = "box"
+min = [0, 0, 0]
+max = [4, 3, 3]
+normals = "inward"
+material = "wall"
+[[luminaires]]
+name = "A1"
+photometry = "iso"
+position = [2, 1.5, 2.5]
+network = "a"
+[[grids]]
+name = "floor"
+kind = "plane"
+origin = [0, 0, 0.01]
+u = [4, 0, 0]
+v = [0, 3, 0]
+nu = 4
+nv = 3
+target_lux = 20
+[cameras.inside]
+position = [3.5, 0.5, 2.0]
+target = [1, 2.5, 0.5]
+fov_deg = 70
+size = [320, 200]
+[cameras.plan]
+position = [2, 1.5, 8]
+target = [2, 1.5, 0]
+up = [0, 1, 0]
+kind = "falsecolour"
+quantity = "illuminance"
+scale = "linear"
+levels = [10, 20]
+size = [320, 200]
+"""
+
+
+def test_run_writes_the_report_unless_told_not_to(write_study, tmp_path, capsys):
+    cfg = write_study(ROOM)
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "--out", str(out)]) == 0
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "cli report room" in page and "floor" in page
+    assert "“inside”" in page and "“plan”" in page  # both configured cameras
+    assert "report:" in capsys.readouterr().out
+    out2 = tmp_path / "out2"
+    assert main(["run", str(cfg), "--out", str(out2), "--no-report"]) == 0
+    assert (out2 / "results.json").exists() and not (out2 / "report.html").exists()
+
+
+def test_report_subcommand(write_study, tmp_path):
+    cfg = write_study(ROOM)
+    out = tmp_path / "rep"
+    assert main(["report", str(cfg), "--out", str(out), "--no-pictures"]) == 0
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "floor" in page and "<img" not in page
+    assert [p.name for p in out.iterdir()] == ["report.html"]  # atomic: no leftovers
+
+
+def test_view_web_names_the_extra_when_trame_is_missing(write_study, monkeypatch, capsys):
+    cfg = write_study(ROOM)
+    monkeypatch.setitem(sys.modules, "trame", None)  # import trame -> ImportError
+    assert main(["view", str(cfg), "--web"]) == 1
+    err = capsys.readouterr().err
+    assert "lumijax[view]" in err and "trame" in err
+
+
+def test_view_unknown_camera(write_study, capsys):
+    cfg = write_study(ROOM)
+    pytest.importorskip("pyvista")
+    assert main(["view", str(cfg), "--camera", "nope"]) == 1
+    assert "cameras: inside, plan" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("camera, message", [
+    ("position = [1, 1, 1]\ntarget = [1, 1, 1]", "no direction to look"),
+    ("position = [1, 1, 5]\ntarget = [1, 1, 0]", "not parallel"),
+    ("position = [0, 0, 0]\ntarget = [1, 0, 0]\nfov_deg = 180", "less than 180"),
+    ("position = [0, 0, 0]\ntarget = [1, 0, 0]\nkind = \"photo\"", "'realistic'"),
+])
+def test_camera_config_errors(camera, message):
+    with pytest.raises(ConfigError, match=message) as e:
+        parse_config(f"[cameras.c1]\n{camera}\n")
+    assert e.value.key.startswith("cameras.c1")
