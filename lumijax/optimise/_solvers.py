@@ -11,7 +11,9 @@ Every solver honours the box ``lo ≤ x ≤ hi`` exactly:
 
 Solvers are stepped one iteration at a time (each step compiled once) so that the objective
 history is recorded; the returned point is clipped to the box, which changes it by at most
-rounding.
+rounding. The point returned is the best one visited (``"gauss_newton"`` takes undamped
+steps, which can overshoot when a bound is active: prefer ``"levenberg_marquardt"``, its damped
+form, there).
 """
 
 from __future__ import annotations
@@ -100,7 +102,7 @@ def _jaxopt(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRu
     init, update, value = _jaxopt_steps(name, residuals, max_steps, tolerance)
     bounds = (lo, hi)
     state = init(x0, bounds, args)
-    x = x0
+    x = best = x0
     history = [float(value(x, args))]
     run = SolverRun(name, x, history)
     for i in range(max_steps):
@@ -110,11 +112,13 @@ def _jaxopt(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRu
             break
         x = x_new
         history.append(fx)
+        if fx < min(history[:-1]):
+            best = x
         run.iterations = i + 1
         if float(state.error) <= tolerance or _stalled(history, tolerance):
             run.converged = True
             break
-    run.x = x
+    run.x = best
     return run
 
 
@@ -174,16 +178,18 @@ def _optimistix_steps(name, residuals, tolerance):
 def _optimistix(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRun:
     init, step, value = _optimistix_steps(name, residuals, tolerance)
     a = (args, lo, hi)
-    z = _from_box(x0, lo, hi)
+    z = best = _from_box(x0, lo, hi)
     state = init(z, a)
     history = [float(value(z, a))]
     run = SolverRun(name, x0, history)
     for i in range(max_steps):
         z, state, done, fz = step(z, state, a)
         history.append(float(fz))
+        if history[-1] < min(history[:-1]):
+            best = z
         run.iterations = i + 1
         if bool(done) or _stalled(history, tolerance):
             run.converged = True
             break
-    run.x = _to_box(z, lo, hi)
+    run.x = _to_box(best, lo, hi)
     return run

@@ -9,11 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import lumijax
 from lumijax.optimise import DimmerLight, Objective
 from lumijax.optimise._models import build_aim_light
 from lumijax.optimise._targets import GridGoal
-
 
 
 def _fd(f, x, h=1e-6):
