@@ -222,13 +222,20 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
     range (log: values below vmin take the lowest colour).
     """
     vals = np.asarray(values, np.float64)
-    vmin, vmax = (float(c) for c in clim) if clim is not None else _range(vals, scale)
+    mesh = points_faces.polydata()
+    # normals follow the triangles' winding: the front faces, the only ones drawn
+    mesh = mesh.compute_normals(cell_normals=True, point_normals=True, split_vertices=False,
+                                consistent_normals=False, auto_orient_normals=False)
+    if clim is not None:
+        vmin, vmax = (float(c) for c in clim)
+    else:  # the range of what the camera sees, not of every surface in the scene
+        seen = in_view(cam, np.asarray(mesh.points), np.asarray(mesh.point_data["Normals"]))
+        vmin, vmax = _range(vals[seen] if seen.any() else vals, scale)
     if levels is None:
         levels = nice_levels(vmin, vmax, scale, max_levels=7)
     levels = [float(x) for x in levels if vmin < float(x) < vmax]
     unit = "cd/m²" if quantity == "luminance" else "lx"
     name = "Luminance" if quantity == "luminance" else "Illuminance"
-    mesh = points_faces.polydata()
     mesh.point_data["value"] = np.maximum(vals, vmin) if scale == "log" else vals
     w, h = cam.size
     font = max(10, int(round(h / 50)))
@@ -257,10 +264,12 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
             bar.SetLabelFormat("%.3g")
             # lift the lines off the surface towards its front (the side drawn) so that the
             # surface never hides them
-            with_n = mesh.compute_normals(cell_normals=False, point_normals=True,
-                                          split_vertices=False, consistent_normals=False,
-                                          auto_orient_normals=False)
-            lines = with_n.contour(levels, scalars="value")
+            # and contour only the faces turned to the camera: lines are never culled, so
+            # those of back faces would show through
+            centres = np.asarray(mesh.cell_centers().points)
+            to_cam = np.asarray(cam.position, np.float64) - centres
+            front = np.einsum("ij,ij->i", np.asarray(mesh.cell_data["Normals"]), to_cam) > 0
+            lines = mesh.extract_cells(np.flatnonzero(front)).contour(levels, scalars="value")
             if lines.n_points:
                 lift = 2e-3 * float(np.linalg.norm(np.subtract(cam.position, cam.target)))
                 lines.points = np.asarray(lines.points) + lift * np.asarray(
