@@ -160,6 +160,7 @@ class Shot:
     point_indirect: Float[np.ndarray, "src points"]
     point_xyz: Float[np.ndarray, "src 3 points"] | None
     result: object
+    timing_s: dict = field(default_factory=dict)
 
 
 def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
@@ -173,6 +174,7 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     """
     from ..solve import solve_radiosity
 
+    t0 = time.perf_counter()
     sp = sol.spectral
     weights = [sp.weights(s) for s in spectra]
     s = np.stack([w[0] for w in weights])  # (src, W)
@@ -183,6 +185,7 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     res = solve_radiosity(sol.transport, rho[:, None, :], b0, method=sol.solve_method,
                           rtol=sol.solve_tolerance, max_steps=sol.solve_max_steps)
     b = np.asarray(res.value, np.float64)  # (P, src, W)
+    t1 = time.perf_counter()
     b_xyz = np.einsum("scw,psw->scp", h, b)  # (src, 3, P)
     e_ind = np.asarray(sol.gather(jnp.asarray(b, dtype)), np.float64)  # (N, src, W)
     ind_xyz = np.einsum("scw,nsw->scn", h, e_ind)  # (src, 3, N)
@@ -192,4 +195,5 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     return Shot(
         radiosity=b_xyz[:, 1], radiosity_xyz=b_xyz if spectral else None,
         point_indirect=ind_xyz[:, 1], point_xyz=point_xyz if spectral else None, result=res,
+        timing_s={"solve": t1 - t0, "gather": time.perf_counter() - t1},
     )

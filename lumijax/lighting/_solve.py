@@ -128,6 +128,8 @@ def solve_lighting(
         stats["operator_cache_hit"] = bool(hit)
     else:
         part = partition(patches, max_block=settings.max_block, occluders=caster)
+        timing["partition"] = time.perf_counter() - t
+        t = time.perf_counter()
         transport = build_operator(patches, part, caster, dtype=dtype)
     timing["operator"] = time.perf_counter() - t
     stats["operator_bytes"] = int(transport.nbytes)
@@ -160,6 +162,7 @@ def solve_lighting(
     shot = shoot(blank, direct_patch.by_network, [g[1] for g in groups],
                  direct_pts.by_network)
     timing["solve_and_gather"] = time.perf_counter() - t
+    timing.update(shot.timing_s)
     res = shot.result
     escaped = np.asarray(res.escaped).ravel()
     stats.update(iterations=int(res.iterations), residual=float(res.residual),

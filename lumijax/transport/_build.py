@@ -2,8 +2,9 @@
 
 Per patch pair, by the centre distance d relative to the larger patch diameter (r = d / diam):
 
-* **far** (r ≥ ``near_ratio``): the reciprocal point-to-point kernel with finite-area correction
-  (:func:`form_factor_far`) times one centroid-to-centroid shadow ray;
+* **far** (r ≥ ``near_ratio``): the reciprocal point-to-point kernel with a second-order
+  finite-area correction (:func:`form_factor_far`, :func:`far_g`) times one centroid-to-centroid
+  shadow ray;
 * **near** (r < ``near_ratio``): Lambert's contour integral from receiver quadrature points to the
   horizon-clipped source triangle (exact in the source), averaged over the receiver's
   sub-triangle centroids (``mid_subdiv``², or ``close_subdiv``² when r < ``close_ratio``:
@@ -24,7 +25,7 @@ import numpy as np
 
 from ..mesh._partition import Partition
 from ..mesh._patches import Patches, _template
-from ._kernels import form_factor_point_triangle
+from ._kernels import far_g, form_factor_point_triangle, triangle_spread
 from ._lowrank import aca_block, clear_pairs, separated, unobstructed_pairs
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
 
@@ -87,7 +88,7 @@ def _chunking(n: int, per_pair: int, max_bytes: int) -> tuple[int, int]:
     return chunk, steps * chunk
 
 
-def _compress(patches, part, s: FormFactorSettings, caster, triangles, diam, counters):
+def _compress(patches, part, s: FormFactorSettings, caster, triangles, diam, counters, spread):
     """{pair index: (U, V)} for the far pairs that compress; the rest stay dense."""
     t0 = time.perf_counter()
     cand = np.flatnonzero(separated(patches, part, s.lowrank_eta, s.near_ratio, diam))
@@ -112,7 +113,7 @@ def _compress(patches, part, s: FormFactorSettings, caster, triangles, diam, cou
             res = aca_block(
                 patches.centroid[ia], patches.normal[ia], patches.area[ia],
                 patches.centroid[ib], patches.normal[ib], patches.area[ib],
-                s.lowrank_tol, cap, seed=int(k),
+                s.lowrank_tol, cap, seed=int(k), sa=spread[ia], sb=spread[ib],
             )
             if res is None:
                 counters["lowrank_rank_cap"] += 1
@@ -201,7 +202,8 @@ def _near_pairs(p: Patches, i, j, s: FormFactorSettings, caster, counters) -> np
     return g
 
 
-def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, counters, diam):
+def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, counters, diam,
+                spread):
     """Dense ``G = A F`` block (float64) for receivers ia and sources ib."""
     ci, ni, ai = p.centroid[ia], p.normal[ia], p.area[ia]
     cj, nj, aj = p.centroid[ib], p.normal[ib], p.area[ib]
@@ -215,9 +217,9 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
     far = ~near & (cos_i > 0) & (cos_j > 0) & upper
     g = np.zeros(d2.shape)
     fi, fj = np.nonzero(far)
-    # form_factor_far, inlined in float64 numpy (host side, one pass)
-    dd = d2[fi, fj]
-    g[fi, fj] = ai[fi] * aj[fj] * cos_i[fi, fj] * cos_j[fi, fj] / (dd * (np.pi * dd + ai[fi] + aj[fj]))
+    # the far kernel (form_factor_far) in float64 numpy (host side, one pass)
+    g[fi, fj] = far_g(cos_i[fi, fj], cos_j[fi, fj], np.einsum("nk,nk->n", ni[fi], nj[fj]),
+                      d2[fi, fj], ai[fi], aj[fj], spread[ia[fi]], spread[ib[fj]])
     if caster is not None and len(fi):
         t0 = time.perf_counter()
         hit = caster.occluded(ci[fi], cj[fj])
@@ -277,9 +279,11 @@ def build_operator(
     t_start = time.perf_counter()
     counters = dict(rays=0, ray_time=0.0, near_pairs=0)
     diam = patches.diameter
+    spread = triangle_spread(patches.vertices)
     sizes = part.sizes
     npatch = patches.n
-    lowrank = _compress(patches, part, s, caster, occluder_triangles, diam, counters) if s.lowrank else {}
+    lowrank = _compress(patches, part, s, caster, occluder_triangles, diam, counters,
+                        spread) if s.lowrank else {}
     # Bucket every visible pair by its padded shape, and preallocate (no second copy).
     keys, lr_keys = {}, {}
     for k, (a, b) in enumerate(part.pairs):
@@ -326,7 +330,7 @@ def build_operator(
             a, b = part.pairs[k]
             rblk[slot], sblk[slot] = a, b
             ia, ib = part.block(a), part.block(b)
-            g = _pair_block(patches, ia, ib, diagonal, s, caster, counters, diam)
+            g = _pair_block(patches, ia, ib, diagonal, s, caster, counters, diam, spread)
             nnz += int(np.count_nonzero(g)) * (1 if diagonal else 2)
             blocks[slot, : len(ia), : len(ib)] = g
             recv[slot, : len(ia)] = ia

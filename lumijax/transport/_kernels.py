@@ -5,16 +5,18 @@
   half-space (horizon clipping) so that partly-behind sources are exact too. Exact for an
   unoccluded source: the only error left in a patch-to-patch factor is the quadrature over the
   receiver.
-* :func:`form_factor_far` — the reciprocal point-to-point estimate with a finite-area correction
-  for well-separated patches.
+* :func:`form_factor_far` — the reciprocal point-to-point estimate with a second-order
+  finite-area correction for well-separated patches (:func:`far_g`, shared with the host-side
+  numpy build).
 """
 
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
-__all__ = ["form_factor_point_triangle", "form_factor_far"]
+__all__ = ["form_factor_point_triangle", "form_factor_far", "far_g", "triangle_spread"]
 
 _TWO_PI = 2.0 * jnp.pi
 
@@ -83,6 +85,37 @@ def form_factor_point_triangle(
     return jnp.where(in_front_of_source & any_front, f, 0.0)
 
 
+def far_g(a, b, c, d2, ai, aj, si, sj, xp=np):
+    """``A_i F_ij`` (m²) of the far kernel from pair quantities (numpy or ``xp=jnp``).
+
+    ``a = n_i·r``, ``b = −n_j·r`` (r = c_j − c_i, both > 0 for facing patches), ``c = n_i·n_j``,
+    ``d2 = |r|²``, areas ``ai, aj`` and spreads ``si, sj`` (half the trace of each patch's
+    second-moment tensor about its centroid, m²: ``A/4π`` for a disk, ``Σ|v_k − c|²/24`` for a
+    triangle). The point kernel ``A_i A_j ab/(π d⁴)`` is corrected to second order in patch
+    size by the Taylor expansion of ``cos θ_i cos θ_j / π r²`` over both patches, taking each
+    patch's second moments as isotropic in its plane::
+
+        δ = (4/d²)·[s_i (1 − 3a²/d² − c a/b) + s_j (1 − 3b²/d² − c b/a)]
+
+    applied as ``1/(1 − δ)`` when δ < 0 (it stays positive at grazing angles) and ``1 + δ``
+    otherwise. Coaxial disks give ``δ = −(A_i + A_j)/(π d²)``, the old correction's first order;
+    chords of a sphere give the flat patches' true deficit ``−(A_i + A_j)/(4π R²)``, whatever
+    d, where the old ``(A_i + A_j)/(π d²)`` over-corrected every pair closer than the diameter
+    (rows of an icosphere summed to 0.998 instead of 1; now 0.99997). Symmetric in i ↔ j.
+    """
+    delta = (4.0 / d2) * (si * (1.0 - 3.0 * a * a / d2 - c * a / b)
+                          + sj * (1.0 - 3.0 * b * b / d2 - c * b / a))
+    corr = xp.where(delta < 0, 1.0 / (1.0 - xp.minimum(delta, 0.0)), 1.0 + xp.maximum(delta, 0.0))
+    return ai * aj * a * b / (xp.pi * d2 * d2) * corr
+
+
+def triangle_spread(vertices):
+    """Half the trace of a triangle's second-moment tensor about its centroid (m²), per
+    triangle of ``vertices`` (…, 3, 3): ``Σ_k |v_k − c|² / 24``."""
+    v = vertices - vertices.mean(axis=-2, keepdims=True)
+    return (v * v).sum(axis=(-2, -1)) / 24.0
+
+
 def form_factor_far(
     ci: Float[Array, "... 3"],
     ni: Float[Array, "... 3"],
@@ -90,16 +123,21 @@ def form_factor_far(
     cj: Float[Array, "... 3"],
     nj: Float[Array, "... 3"],
     aj: Float[Array, "..."],
+    si=None,
+    sj=None,
 ) -> Float[Array, "..."]:
     """``A_i F_ij`` (m²) for well-separated patches, unoccluded; symmetric in i and j.
 
-    ``A_i A_j cosθ_i cosθ_j / (π d² + A_i + A_j)``: the point-to-point kernel with the finite-area
-    correction that makes it exact to second order for coaxial disks (``form-factors.md`` §5 with
-    R ≪ 1 gives R²/(1 + 2R²)); it is reciprocal by construction.
+    The point-to-point kernel with a second-order finite-area correction (:func:`far_g`);
+    ``si, sj`` are the patches' spreads (default: disks, ``A/4π``). Reciprocal by construction.
     """
+    si = ai / (4.0 * jnp.pi) if si is None else si
+    sj = aj / (4.0 * jnp.pi) if sj is None else sj
     d = cj - ci
     d2 = jnp.sum(d * d, axis=-1)
-    cos_i = jnp.sum(d * ni, axis=-1)
-    cos_j = -jnp.sum(d * nj, axis=-1)
-    g = ai * aj * cos_i * cos_j / (d2 * (jnp.pi * d2 + ai + aj))
-    return jnp.where((cos_i > 0) & (cos_j > 0), g, 0.0)
+    a = jnp.sum(d * ni, axis=-1)
+    b = -jnp.sum(d * nj, axis=-1)
+    ok = (a > 0) & (b > 0)
+    g = far_g(jnp.where(ok, a, 1.0), jnp.where(ok, b, 1.0), jnp.sum(ni * nj, axis=-1), d2,
+              ai, aj, si, sj, xp=jnp)
+    return jnp.where(ok, g, 0.0)

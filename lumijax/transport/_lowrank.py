@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._kernels import far_g
+
 __all__ = ["block_spheres", "separated", "clear_pairs", "unobstructed_pairs", "aca_block"]
 
 
@@ -133,24 +135,31 @@ def unobstructed_pairs(part, pairs, triangles) -> np.ndarray:
     return ok
 
 
-def _kernel(c, n, a, C, N, A):
-    """``A_i F_ij`` of the far kernel (float64), one patch (c, n, a) against arrays (C, N, A)."""
+def _kernel(c, n, a, s, C, N, A, S):
+    """``A_i F_ij`` of the far kernel (float64), one patch (c, n, a, spread s) against arrays."""
     d = C - c
     d2 = np.einsum("ij,ij->i", d, d)
     ci = d @ n
     cj = -np.einsum("ij,ij->i", d, N)
-    g = a * A * ci * cj / (d2 * (np.pi * d2 + a + A))
-    return np.where((ci > 0) & (cj > 0), g, 0.0)
+    ok = (ci > 0) & (cj > 0)
+    g = far_g(np.where(ok, ci, 1.0), np.where(ok, cj, 1.0), N @ n, d2, a, A, s, S)
+    return np.where(ok, g, 0.0)
 
 
-def aca_block(ca, na, aa, cb, nb, ab, tol: float, max_rank: int, checks: int = 256, seed=0):
+def aca_block(ca, na, aa, cb, nb, ab, tol: float, max_rank: int, checks: int = 256, seed=0,
+              sa=None, sb=None):
     """Low-rank ``U Vᵀ ≈ G`` of the far block (receivers a, sources b), or ``None``.
+
+    ``sa, sb``: the patches' spreads for the far kernel's correction (``far_g``; default:
+    disks of the same area).
 
     ``None`` when the rank needed exceeds ``max_rank`` or the random-entry check fails.
     Returns ``(U, V, stats)`` with U (m, r), V (n, r) float64; r = 0 for a block that is zero
     (no facing patch pair found).
     """
     m, n = len(ca), len(cb)
+    sa = aa / (4 * np.pi) if sa is None else sa
+    sb = ab / (4 * np.pi) if sb is None else sb
     rng = np.random.default_rng(seed)
     cap = max(1, min(max_rank, m, n))
     U = np.zeros((m, cap))
@@ -162,7 +171,7 @@ def aca_block(ca, na, aa, cb, nb, ab, tol: float, max_rank: int, checks: int = 2
     stop = 0.5 * tol
     while True:
         used[i] = True
-        row = _kernel(ca[i], na[i], aa[i], cb, nb, ab) - V[:, :k] @ U[i, :k]
+        row = _kernel(ca[i], na[i], aa[i], sa[i], cb, nb, ab, sb) - V[:, :k] @ U[i, :k]
         j = int(np.argmax(np.abs(row)))
         piv = row[j]
         if abs(piv) <= 1e-12 * scale or piv == 0.0:
@@ -178,7 +187,7 @@ def aca_block(ca, na, aa, cb, nb, ab, tol: float, max_rank: int, checks: int = 2
         misses = 0
         scale = max(scale, abs(piv))
         v = row / piv
-        u = _kernel(cb[j], nb[j], ab[j], ca, na, aa) - U[:, :k] @ V[j, :k]
+        u = _kernel(cb[j], nb[j], ab[j], sb[j], ca, na, aa, sa) - U[:, :k] @ V[j, :k]
         norm2 += 2.0 * float((U[:, :k].T @ u) @ (V[:, :k].T @ v)) + float(u @ u) * float(v @ v)
         U[:, k], V[:, k] = u, v
         k += 1
@@ -211,8 +220,10 @@ def aca_block(ca, na, aa, cb, nb, ab, tol: float, max_rank: int, checks: int = 2
     d2 = np.einsum("ij,ij->i", d, d)
     cos_i = np.einsum("ij,ij->i", d, na[ii])
     cos_j = -np.einsum("ij,ij->i", d, nb[jj])
-    exact = aa[ii] * ab[jj] * cos_i * cos_j / (d2 * (np.pi * d2 + aa[ii] + ab[jj]))
-    exact = np.where((cos_i > 0) & (cos_j > 0), exact, 0.0)
+    ok = (cos_i > 0) & (cos_j > 0)
+    exact = far_g(np.where(ok, cos_i, 1.0), np.where(ok, cos_j, 1.0),
+                  np.einsum("ij,ij->i", na[ii], nb[jj]), d2, aa[ii], ab[jj], sa[ii], sb[jj])
+    exact = np.where(ok, exact, 0.0)
     approx = np.einsum("ir,ir->i", U[ii], V[jj])
     err = np.sqrt(m * n * np.mean((approx - exact) ** 2))
     ref = np.sqrt(max(norm2, m * n * np.mean(exact**2)))
