@@ -6,20 +6,44 @@ import io
 
 import numpy as np
 
-__all__ = ["polar_plot", "beam_angle_deg"]
+__all__ = ["polar_plot", "beam_angle_deg", "intensity_np"]
 
 _PLANES = {"C": ((0.0, 180.0), (90.0, 270.0)), "B": ((0.0, 180.0), (90.0, 270.0)),
            "A": ((0.0, 180.0), (90.0, 270.0))}
 
 
+def intensity_np(dist, d) -> np.ndarray:
+    """Intensity (cd) towards local directions ``d`` (..., 3), evaluated in numpy.
+
+    Type C tables are interpolated bilinearly in (C, γ) here, as
+    :meth:`CandelaDistribution.intensity` does, without JAX: pictures of a handful of
+    photometries would otherwise spend seconds compiling one kernel per table shape. Other
+    types go through ``intensity``.
+    """
+    d = np.asarray(d, np.float64)
+    if dist.photometric_type != "C":
+        import jax.numpy as jnp
+
+        return np.asarray(dist.intensity(jnp.asarray(d)), np.float64)
+    from scipy.interpolate import RegularGridInterpolator
+
+    n = np.linalg.norm(d, axis=-1)
+    gamma = np.degrees(np.arccos(np.clip(-d[..., 2] / np.where(n > 0, n, 1.0), -1.0, 1.0)))
+    c = np.degrees(np.arctan2(d[..., 1], d[..., 0])) % 360.0
+    h, v = np.asarray(dist.h_deg, np.float64), np.asarray(dist.v_deg, np.float64)
+    cd = np.asarray(dist.candela, np.float64)
+    if len(h) == 1:  # rotationally symmetric table
+        return np.interp(gamma, v, cd[0], left=0.0, right=0.0)
+    f = RegularGridInterpolator((h, v), cd, bounds_error=False, fill_value=0.0)
+    return f(np.stack([c, gamma], axis=-1))
+
+
 def _plane_curve(dist, c_deg: float, gamma: np.ndarray) -> np.ndarray:
     """Intensity (cd) in the half-plane at azimuth ``c_deg`` about the luminaire's axis
     (local −z), for angles ``gamma`` from the axis: the C-plane of a Type C file."""
-    import jax.numpy as jnp
-
     g, c = np.radians(gamma), np.radians(c_deg)
     d = np.stack([np.sin(g) * np.cos(c), np.sin(g) * np.sin(c), -np.cos(g)], axis=-1)
-    return np.asarray(dist.intensity(jnp.asarray(d)), np.float64)
+    return intensity_np(dist, d)
 
 
 def beam_angle_deg(dist, c_deg: float = 0.0) -> float:
@@ -60,7 +84,7 @@ def polar_plot(photometry, name: str, *, dpi: int = 110) -> bytes:
     ax.tick_params(axis="y", labelsize=7, colors="#555555")
     ax.set_rlabel_position(100)
     ax.grid(color="#cccccc", lw=0.6)
-    peak = float(dist.peak_cd)
+    peak = float(np.max(np.asarray(dist.candela)))
     fig.text(0.5, 0.965, name, ha="center", va="top", fontsize=10, fontweight="bold")
     fig.text(0.5, 0.915, f"intensity in cd; peak {peak:,.0f} cd, {float(dist.flux()):,.0f} lm",
              ha="center", va="top", fontsize=8, color="#444444")

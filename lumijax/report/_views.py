@@ -7,6 +7,7 @@ culled: a room seen from outside opens like a doll's house.
 
 from __future__ import annotations
 
+import functools
 import io
 import os
 from pathlib import Path
@@ -84,19 +85,26 @@ def auto_exposure(surface, dimmers, cam: Camera | None = None) -> float:
     return max(auto_ev100(lum, w), auto_ev100(lum, w, quantile=0.95) - 2.0)
 
 
+@functools.lru_cache(maxsize=64)
+def _lamp_rgb(spectrum) -> np.ndarray:
+    """Linear sRGB of a lamp's chromaticity, largest channel 1 (cached: integrating a spectrum
+    takes a moment, and a study has few spectra but many luminaires)."""
+    import colour
+
+    from ..spectral import tristimulus
+
+    lin = np.maximum(np.asarray(colour.XYZ_to_sRGB(tristimulus(spectrum),
+                                                   apply_cctf_encoding=False)), 0.0)
+    return lin / max(float(lin.max()), 1e-12)
+
+
 def fitting_colour(luminaire, dimmer: float) -> np.ndarray:
     """sRGB (in [0, 1]) of a fitting's glowing face: its lamp's chromaticity, as bright as a
     display allows, fading to the dark body colour as its dimmer goes to 0."""
     import colour
 
-    lin = np.ones(3)
     spectrum = getattr(luminaire, "spectrum", None)
-    if spectrum is not None:
-        from ..spectral import tristimulus
-
-        lin = np.maximum(np.asarray(colour.XYZ_to_sRGB(tristimulus(spectrum),
-                                                       apply_cctf_encoding=False)), 0.0)
-        lin = lin / max(float(lin.max()), 1e-12)
+    lin = np.ones(3) if spectrum is None else _lamp_rgb(spectrum)
     body = np.full(3, 0.02)
     d = float(np.clip(dimmer, 0.0, 1.0))
     lin = body + (lin - body) * d ** 0.5  # perceptual fade: half-dimmed still glows
@@ -107,7 +115,7 @@ def beam_outline(distribution, n_azimuth: int = 36) -> tuple[np.ndarray, np.ndar
     """``(peak direction (3,), rim directions (n, 3))`` in the luminaire frame: around the
     direction of peak intensity, the angle at which intensity first falls to half the peak
     (the half-peak "beam angle" edge, IES LM-63's definition), per azimuth."""
-    import jax.numpy as jnp
+    from ._polar import intensity_np
 
     peak, h, v = distribution.max_intensity()
     p = np.asarray(distribution.direction(h, v), np.float64)
@@ -120,11 +128,36 @@ def beam_outline(distribution, n_azimuth: int = 36) -> tuple[np.ndarray, np.ndar
     phi = np.linspace(0.0, 2 * np.pi, n_azimuth, endpoint=False)
     ring = np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2  # (A, 3)
     d = (np.cos(theta)[None, :, None] * p + np.sin(theta)[None, :, None] * ring[:, None, :])
-    cd = np.asarray(distribution.intensity(jnp.asarray(d)), np.float64)
+    cd = intensity_np(distribution, d)
     below = cd < 0.5 * peak
     idx = np.where(below.any(axis=1), below.argmax(axis=1), len(theta) - 1)
     rim = d[np.arange(len(phi)), idx]
     return p, rim
+
+
+def _template(poly) -> tuple[np.ndarray, np.ndarray]:
+    """(points, triangles) of a pyvista source, triangulated."""
+    t = poly.triangulate()
+    return np.asarray(t.points, np.float64), np.asarray(t.faces).reshape(-1, 4)[:, 1:]
+
+
+def _basis(axis) -> np.ndarray:
+    """A rotation taking local +z to ``axis`` (columns: two perpendiculars and the axis)."""
+    a = np.asarray(axis, np.float64) / np.linalg.norm(axis)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(a, ref)
+    e1 /= np.linalg.norm(e1)
+    return np.column_stack([e1, np.cross(a, e1), a])
+
+
+def _merge(template, frames, scale: float):
+    """Copies of a template mesh at each (position, rotation), scaled, as one PolyData."""
+    import pyvista as pv
+
+    pts, tri = template
+    allp = np.concatenate([pos + scale * pts @ rot.T for pos, rot in frames])
+    allt = np.concatenate([tri + i * len(pts) for i in range(len(frames))])
+    return pv.PolyData(allp, faces=np.column_stack([np.full(len(allt), 3), allt]).ravel())
 
 
 def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = True) -> None:
@@ -133,18 +166,28 @@ def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = Tr
     import pyvista as pv
 
     dist = float(np.linalg.norm(np.subtract(cam.position, cam.target)))
-    r = float(np.clip(0.008 * dist, 0.04, 0.4))
+    r = float(np.clip(0.004 * dist, 0.03, 0.25))
     level = dict(zip(scene.network_names, np.asarray(dimmers, np.float64), strict=True))
     beams: dict[str, tuple] = {}
+    if scene.luminaires:
+        # one mesh for all cans and one for all faces: hundreds of actors draw slowly
+        can_t = _template(pv.Cylinder(center=(0, 0, -0.6), direction=(0, 0, 1), radius=1.0,
+                                      height=1.2, resolution=16))
+        face_t = _template(pv.Disc(center=(0, 0, 1e-3), normal=(0, 0, 1), inner=0.0,
+                                   outer=0.85, c_res=16))
+        frames = [(np.asarray(lum.position, np.float64), _basis(lum.axis))
+                  for lum in scene.luminaires]
+        cans = _merge(can_t, frames, r)
+        faces = _merge(face_t, frames, r)
+        colours = np.stack([fitting_colour(lum, level[lum.network])
+                            for lum in scene.luminaires])
+        faces.point_data["rgb"] = np.round(np.repeat(colours, face_t[0].shape[0], axis=0)
+                                           * 255).astype(np.uint8)
+        pl.add_mesh(cans, color=(0.12, 0.12, 0.13), lighting=False)
+        pl.add_mesh(faces, scalars="rgb", rgb=True, lighting=False, show_scalar_bar=False)
     for lum in scene.luminaires:
         axis = lum.axis / np.linalg.norm(lum.axis)
         pos = np.asarray(lum.position, np.float64)
-        can = pv.Cylinder(center=pos - axis * 0.6 * r, direction=axis, radius=r, height=1.2 * r,
-                          resolution=24)
-        pl.add_mesh(can, color=(0.12, 0.12, 0.13), lighting=False)
-        face = pv.Disc(center=pos + axis * 1e-3 * r, normal=axis, inner=0.0, outer=0.85 * r,
-                       c_res=24)
-        pl.add_mesh(face, color=fitting_colour(lum, level[lum.network]), lighting=False)
         if not markers:
             continue
         length = 3.0 * dist / 10.0
