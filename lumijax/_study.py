@@ -68,7 +68,7 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
         indirect=c.indirect, patch_size=c.patch_size, target_patches=c.target_patches,
         max_block=c.max_block, method=c.method, tolerance=c.tolerance,
         max_iterations=c.max_iterations, gather_rays=c.gather_rays, precision=c.precision,
-        spectral_samples=c.spectral_samples,
+        spectral_samples=c.spectral_samples, operator_patches=c.operator_patches,
     )
     values.update(overrides)
     return SolverSettings(**values)

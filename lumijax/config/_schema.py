@@ -416,6 +416,7 @@ class SolverConfig(_Model):
     precision: Literal["float32", "float64"] = "float32"
     spectral_samples: Annotated[int, Field(ge=0, le=64)] = 16
     cache: bool = True
+    operator_patches: Annotated[int, Field(ge=10, le=10_000_000)] | None = None
 
 
 class OptimiseConfig(_Model):

@@ -79,6 +79,53 @@ class LightingSolution:
     solve_tolerance: float | None = None
     solve_max_steps: int = 1000
     stats: dict = field(default_factory=dict)
+    # Two-level solve (docs/radiosity.md, "Two levels"): the fields above are the operator's
+    # elements; these are the fine patches that gathered from them (None: one level).
+    fine_patches: object | None = None
+    fine_gather: GatherOperator | None = None
+    fine_rho: Float[np.ndarray, "fine w"] | None = None
+    fine_patch_direct: Float[np.ndarray, "net fine"] | None = None
+    fine_patch_indirect: Float[np.ndarray, "net fine"] | None = None
+    fine_radiosity: Float[np.ndarray, "net fine"] | None = None
+    fine_radiosity_xyz: Float[np.ndarray, "net 3 fine"] | None = None
+
+    @property
+    def display_patches(self):
+        """The patches to show and write: the fine ones of a two-level solve, else the elements."""
+        return self.fine_patches if self.fine_patches is not None else self.patches
+
+    @property
+    def display_radiosity(self) -> Float[np.ndarray, "net patches"]:
+        """``(networks, display patches)`` luminous radiosity (lm/m²) at dimmer 1."""
+        return self.fine_radiosity if self.fine_patches is not None else self.radiosity
+
+    @property
+    def display_radiosity_xyz(self) -> Float[np.ndarray, "net 3 patches"] | None:
+        """``(networks, 3, display patches)`` CIE XYZ of the radiosity, or None."""
+        return self.fine_radiosity_xyz if self.fine_patches is not None else self.radiosity_xyz
+
+    @property
+    def display_patch_direct(self) -> Float[np.ndarray, "net patches"]:
+        """``(networks, display patches)`` direct irradiance (lx)."""
+        return self.fine_patch_direct if self.fine_patches is not None else self.patch_direct
+
+    @property
+    def display_rho(self) -> Float[np.ndarray, " patches"] | None:
+        """Luminous reflectance of the display patches."""
+        if self.fine_patches is None:
+            return self.rho
+        return np.array([m.luminous_reflectance for m in self.scene.materials])[
+            self.fine_patches.material]
+
+    def display_patch_illuminance(self) -> Float[np.ndarray, "net patches"]:
+        """Irradiance on each display patch per network (lx): direct + inter-reflected."""
+        if self.fine_patches is None:
+            return self.patch_illuminance()
+        return self.fine_patch_direct + self.fine_patch_indirect
+
+    def display_radiosity_at(self, dimmers) -> Float[np.ndarray, " patches"]:
+        """Radiosity of the display patches at any dimmer vector (lm/m²), exact, no solve."""
+        return np.asarray(dimmers, np.float64) @ self.display_radiosity
 
     @property
     def point_total(self) -> Float[np.ndarray, "net points"]:
@@ -114,7 +161,8 @@ class LightingSolution:
         t0 = time.perf_counter()
         upd = {name: np.array(getattr(self, name), copy=True) for name in (
             "patch_direct", "radiosity", "point_direct", "point_indirect")}
-        for name in ("radiosity_xyz", "point_xyz"):
+        for name in ("radiosity_xyz", "point_xyz", "fine_patch_direct", "fine_patch_indirect",
+                     "fine_radiosity", "fine_radiosity_xyz"):
             arr = getattr(self, name)
             upd[name] = None if arr is None else arr.copy()
         # direct light of the old and new luminaire alone (its candidate pairs only)
@@ -125,12 +173,15 @@ class LightingSolution:
             e_pts = sign * direct_illuminance(one, self.points, self.normals).by_network[0]
             e_patch = None if self.patches is None else sign * direct_illuminance(
                 one, self.patches.centroid, self.patches.normal).by_network[0]
-            rows.append([names.index(lum.network), lum.spectrum, e_pts, e_patch])
+            e_fine = None if self.fine_patches is None else sign * direct_illuminance(
+                one, self.fine_patches.centroid, self.fine_patches.normal).by_network[0]
+            rows.append([names.index(lum.network), lum.spectrum, e_pts, e_patch, e_fine])
         # same network and spectrum: one difference row, so one solve of W columns, not two
         if rows[0][0] == rows[1][0] and rows[0][1] is rows[1][1]:
             rows = [[rows[0][0], rows[0][1], rows[0][2] + rows[1][2],
-                     None if self.patches is None else rows[0][3] + rows[1][3]]]
-        for k, _, e_pts, e_patch in rows:
+                     None if self.patches is None else rows[0][3] + rows[1][3],
+                     None if self.fine_patches is None else rows[0][4] + rows[1][4]]]
+        for k, _, e_pts, e_patch, _fine in rows:
             upd["point_direct"][k] += e_pts
             if e_patch is not None:
                 upd["patch_direct"][k] += e_patch
@@ -143,6 +194,18 @@ class LightingSolution:
                 if upd["point_xyz"] is not None:
                     upd["radiosity_xyz"][k] += shot.radiosity_xyz[q]
                     upd["point_xyz"][k] += shot.point_xyz[q]
+            if self.fine_patches is not None:
+                from ._final_gather import reflect_onto_fine
+
+                rb, rxyz, rind = reflect_onto_fine(
+                    self.fine_gather, self.fine_rho, np.stack([r[4] for r in rows]),
+                    [self.spectral.weights(r[1]) for r in rows], shot.value)
+                for q, (k, *_rest) in enumerate(rows):
+                    upd["fine_patch_direct"][k] += rows[q][4]
+                    upd["fine_patch_indirect"][k] += rind[q]
+                    upd["fine_radiosity"][k] += rb[q]
+                    if upd["fine_radiosity_xyz"] is not None:
+                        upd["fine_radiosity_xyz"][k] += rxyz[q]
         stats = dict(self.stats, incremental_s=time.perf_counter() - t0)
         return dataclasses.replace(self, scene=new_scene, stats=stats, **upd)
 
@@ -161,6 +224,7 @@ class Shot:
     point_xyz: Float[np.ndarray, "src 3 points"] | None
     result: object
     timing_s: dict = field(default_factory=dict)
+    value: Float[np.ndarray, "patches src w"] | None = None  # the spectral radiosity solved
 
 
 def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
@@ -195,5 +259,5 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     return Shot(
         radiosity=b_xyz[:, 1], radiosity_xyz=b_xyz if spectral else None,
         point_indirect=ind_xyz[:, 1], point_xyz=point_xyz if spectral else None, result=res,
-        timing_s={"solve": t1 - t0, "gather": time.perf_counter() - t1},
+        timing_s={"solve": t1 - t0, "gather": time.perf_counter() - t1}, value=b,
     )

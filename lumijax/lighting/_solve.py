@@ -36,6 +36,7 @@ class SolverSettings:
     gather_rays: int = 512
     precision: str = "float32"
     spectral_samples: int = 16
+    operator_patches: int | None = None  # two levels: elements for the operator (docs/radiosity.md)
 
 
 def auto_patch_size(total_area_m2: float, target_patches: int) -> float:
@@ -115,8 +116,13 @@ def solve_lighting(
     size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     caster = scene.raycaster
+    patches, fine = _two_levels(patches, tri, size, settings.operator_patches)
     timing["mesh"] = time.perf_counter() - t
     stats.update(patches=patches.n, patch_size_m=size)
+    if fine is not None:
+        stats.update(fine_patches=fine.n,
+                     element_size_m=auto_patch_size(float(tri.areas.sum()),
+                                                    settings.operator_patches))
 
     t = time.perf_counter()
     dtype = np.float64 if settings.precision == "float64" else np.float32
@@ -135,8 +141,14 @@ def solve_lighting(
     stats["operator_bytes"] = int(transport.nbytes)
 
     t = time.perf_counter()
-    direct_patch = direct_illuminance(gscene, patches.centroid, patches.normal,
-                                      progress=stage("direct light on patches"))
+    if fine is None:
+        direct_patch = direct_illuminance(gscene, patches.centroid, patches.normal,
+                                          progress=stage("direct light on patches"))
+    else:  # exact on the fine patches; the elements get their area means (flux conserved)
+        from ._final_gather import element_direct
+
+        direct_fine, direct_patch = element_direct(gscene, fine, patches,
+                                                   progress=stage("direct light on patches"))
     timing["direct_patches"] = time.perf_counter() - t
     stats["shadow_rays"] += direct_patch.shadow_rays
 
@@ -163,6 +175,20 @@ def solve_lighting(
                  direct_pts.by_network)
     timing["solve_and_gather"] = time.perf_counter() - t
     timing.update(shot.timing_s)
+    two = {}
+    if fine is not None:
+        from ._final_gather import final_gather
+
+        t = time.perf_counter()
+        lvl = final_gather(fine, patches, caster, spectral, [g[1] for g in groups],
+                           shot.value, direct_fine.by_network, rays=settings.gather_rays)
+        timing["final_gather"] = time.perf_counter() - t
+        timing.update(lvl.timing_s)
+        two = dict(fine_patches=fine, fine_gather=lvl.gather, fine_rho=lvl.rho,
+                   fine_patch_direct=per_network(lvl.direct),
+                   fine_patch_indirect=per_network(lvl.indirect),
+                   fine_radiosity=per_network(lvl.radiosity),
+                   fine_radiosity_xyz=per_network(lvl.radiosity_xyz))
     res = shot.result
     escaped = np.asarray(res.escaped).ravel()
     stats.update(iterations=int(res.iterations), residual=float(res.residual),
@@ -177,8 +203,24 @@ def solve_lighting(
         blank, patch_direct=per_network(direct_patch.by_network),
         radiosity=per_network(shot.radiosity), radiosity_xyz=per_network(shot.radiosity_xyz),
         point_indirect=per_network(shot.point_indirect), point_xyz=per_network(shot.point_xyz),
-        stats={**stats, "timing_s": timing},
+        stats={**stats, "timing_s": timing}, **two,
     )
+
+
+def _two_levels(patches, tri, size: float, operator_patches: int | None):
+    """``(elements, fine)``: the operator's elements and the fine patches that gather from them
+    (``fine`` None: one level, when not asked for or when the elements would not be coarser)."""
+    if operator_patches is None:
+        return patches, None
+    from ..mesh import mesh_patches
+
+    esize = auto_patch_size(float(tri.areas.sum()), operator_patches)
+    if esize <= size:
+        return patches, None
+    elements = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=esize)
+    if elements.n >= patches.n:
+        return patches, None
+    return elements, patches
 
 
 def _emission_groups(scene):

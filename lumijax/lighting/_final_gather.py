@@ -1,0 +1,205 @@
+"""Two-level radiosity: solve on coarse elements, gather onto fine patches (final gather).
+
+The inter-reflected field is smooth, the direct field is not. So the operator, the partition and
+the solve run on coarse **elements** (about ``[solver] operator_patches``), and every fine
+**patch** gets
+
+* its own exact direct irradiance (``lumijax.direct`` on the fine centroids), and
+* the irradiance of the coarse solution it sees, ``E_gath = Σ_j G_ij B_j``, by the same
+  cosine-weighted ray gather used for calculation points (``build_gather``, piecewise-constant
+  element radiosity),
+
+then reflects both: ``B_fine(λ) = ρ_fine(λ) (E_direct s(λ) + E_gath(λ))``, per emission group
+and sample wavelength. This is the classical two-pass final gather: its only approximations
+are the one bounce from a coarse element (its radiosity is an area mean) and the ray sampling.
+The stored fine gather is a sparse ``(fine patches × elements)`` map, so re-shooting a changed
+luminaire (``replace_luminaire``) also updates the fine level without a ray.
+
+Memory is linear in the fine patch count: the gather is cast in chunks of fine patches and
+applied as one sparse product, never as a dense ``(links, groups, wavelengths)`` array.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from jaxtyping import Float
+
+from ._gather import GatherOperator, build_gather
+
+__all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather", "reflect_onto_fine"]
+
+
+@dataclass(frozen=True, eq=False)
+class FineLevel:
+    """Per-source light on the fine patches (one row per emission group or source row).
+
+    Attributes
+    ----------
+    patches
+        The fine :class:`lumijax.mesh.Patches`.
+    gather
+        Sparse map from element radiosity to fine-patch irradiance (lx).
+    rho
+        ``(fine, W)`` reflectance at the solve's sample wavelengths.
+    direct
+        ``(src, fine)`` direct illuminance (lx).
+    indirect
+        ``(src, fine)`` gathered inter-reflected illuminance (lx, luminous).
+    radiosity
+        ``(src, fine)`` luminous radiosity (lm/m²).
+    radiosity_xyz
+        ``(src, 3, fine)`` CIE XYZ of the radiosity, or None (photometric solve).
+    """
+
+    patches: object
+    gather: GatherOperator
+    rho: Float[np.ndarray, "fine w"]
+    direct: Float[np.ndarray, "src fine"]
+    indirect: Float[np.ndarray, "src fine"]
+    radiosity: Float[np.ndarray, "src fine"]
+    radiosity_xyz: Float[np.ndarray, "src 3 fine"] | None
+    timing_s: dict = field(default_factory=dict)
+
+
+def build_fine_gather(fine, elements, caster, *, rays: int, chunk: int = 32_768) -> GatherOperator:
+    """Gather map from the elements onto the fine patches' centroids, cast in chunks.
+
+    Each chunk is merged on its own (links never cross points, so this is exact) and the
+    links are stored as int32/float32: peak memory is one chunk's rays, not all of them.
+    """
+    # a centroid lies on its own surface: start the rays a hair in front of it
+    lift = 10.0 * float(getattr(caster, "epsilon", 1e-6))
+    origins = fine.centroid + lift * fine.normal
+    pts, pat, wts = [], [], []
+    for i, s in enumerate(range(0, fine.n, chunk)):
+        g = build_gather(origins[s:s + chunk], fine.normal[s:s + chunk], elements, caster,
+                         rays=rays, seed=i)
+        pts.append(g.point.astype(np.int32) + np.int32(s))
+        pat.append(g.patch.astype(np.int32))
+        wts.append(g.weight.astype(np.float32))
+    return GatherOperator(n_points=fine.n, n_patches=elements.n, point=_cat(pts, np.int32),
+                          patch=_cat(pat, np.int32), weight=_cat(wts, np.float32))
+
+
+def _cat(parts, dtype):
+    return np.concatenate(parts) if parts else np.zeros(0, dtype)
+
+
+def _sparse(gather: GatherOperator):
+    from scipy.sparse import csr_matrix
+
+    return csr_matrix((gather.weight.astype(np.float64), (gather.point, gather.patch)),
+                      shape=(gather.n_points, gather.n_patches))
+
+
+def reflect_onto_fine(
+    gather: GatherOperator,
+    rho: Float[np.ndarray, "fine w"],
+    direct: Float[np.ndarray, "src fine"],
+    weights: list,
+    b_elements: Float[np.ndarray, "elements src w"],
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """``(radiosity (src, fine), radiosity_xyz (src, 3, fine), indirect (src, fine))`` of rows
+    with these direct irradiances, spectral weights ``(s, H)`` and element radiosities."""
+    ne, nsrc, nw = b_elements.shape
+    # one sparse product for every (source, wavelength) column: (fine, src·W)
+    e = (_sparse(gather) @ np.asarray(b_elements, np.float64).reshape(ne, nsrc * nw))
+    e = e.reshape(-1, nsrc, nw)
+    s = np.stack([w[0] for w in weights])  # (src, W)
+    h = np.stack([w[1] for w in weights])  # (src, 3, W)
+    ind_xyz = np.einsum("scw,fsw->scf", h, e)
+    e += np.asarray(direct, np.float64).T[:, :, None] * s[None]  # total irradiance, spectral
+    e *= rho[:, None, :]
+    b_xyz = np.einsum("scw,fsw->scf", h, e)
+    return b_xyz[:, 1], b_xyz, ind_xyz[:, 1]
+
+
+def element_direct(gscene, fine, elements, *, progress=None):
+    """``(fine, elements)`` direct light (:class:`lumijax.direct.DirectLighting`): exact on the
+    fine patches; each element gets the area mean of the fine patches in it (the fine patch of
+    the same source triangle whose centroid is nearest), so the direct flux the solve reflects
+    is the fine one, not a centroid sample of a spot's hot edge. An element holding no fine
+    centroid (possible only where the two cuts of a sliver differ) is sampled at its own
+    centroid."""
+    from ..direct import DirectLighting, direct_illuminance
+
+    d_fine = direct_illuminance(gscene, fine.centroid, fine.normal, progress=progress)
+    owner = element_of(fine, elements)
+    area = np.bincount(owner, weights=fine.area, minlength=elements.n)
+    by = np.stack([np.bincount(owner, weights=fine.area * row, minlength=elements.n)
+                   for row in d_fine.by_network]) if len(d_fine.by_network) else np.zeros(
+        (0, elements.n))
+    empty = area <= 0
+    by = by / np.where(empty, 1.0, area)
+    rays = d_fine.shadow_rays
+    if empty.any():
+        d_e = direct_illuminance(gscene, elements.centroid[empty], elements.normal[empty])
+        by[:, empty] = d_e.by_network
+        rays += d_e.shadow_rays
+    return d_fine, DirectLighting(by_network=by, shadow_rays=rays)
+
+
+def element_of(fine, elements) -> np.ndarray:
+    """Index of the element holding each fine patch (same source triangle, nearest centroid)."""
+    from scipy.spatial import cKDTree
+
+    from ._gather import _patch_of_hits
+
+    tree = cKDTree(elements.centroid)
+    return np.asarray(_patch_of_hits(tree, np.asarray(elements.source_triangle),
+                                     fine.centroid, np.asarray(fine.source_triangle)), np.int64)
+
+
+def final_gather(
+    fine,
+    elements,
+    caster,
+    spectral,
+    spectra: list,
+    b_elements: Float[np.ndarray, "elements src w"],
+    direct: Float[np.ndarray, "src fine"],
+    *,
+    rays: int,
+) -> FineLevel:
+    """The fine level of a two-level solve (see the module docstring).
+
+    Parameters
+    ----------
+    fine, elements
+        Fine patches and the coarse elements the operator was solved on (same triangles).
+    spectral
+        The elements' :class:`~lumijax.lighting._spectral.SpectralSetup`; its wavelengths are
+        reused, so fine and coarse columns line up.
+    spectra
+        The spectrum of each emission group (None: default).
+    b_elements
+        ``(elements, groups, W)`` spectral radiosity of the solve.
+    direct
+        ``(groups, fine)`` direct illuminance on the fine patches (lx).
+    """
+    timing = {}
+    t = time.perf_counter()
+    gather = build_fine_gather(fine, elements, caster, rays=rays)
+    timing["fine_gather_rays"] = time.perf_counter() - t
+    t = time.perf_counter()
+    rho = fine_reflectance(spectral, elements, fine)
+    weights = [spectral.weights(sp) for sp in spectra]
+    radiosity, b_xyz, indirect = reflect_onto_fine(gather, rho, direct, weights, b_elements)
+    timing["fine_reflect"] = time.perf_counter() - t
+    return FineLevel(
+        patches=fine, gather=gather, rho=rho, direct=np.asarray(direct), indirect=indirect,
+        radiosity=radiosity, radiosity_xyz=b_xyz if spectral.sampling is not None else None,
+        timing_s=timing,
+    )
+
+
+def fine_reflectance(spectral, elements, fine) -> Float[np.ndarray, "fine w"]:
+    """Per-fine-patch reflectance at the solve's wavelengths, taken from the elements' table
+    (both levels cut the same triangles, so every material is on some element)."""
+    n_mat = int(max(np.max(elements.material, initial=-1), np.max(fine.material, initial=-1))) + 1
+    table = np.zeros((n_mat, spectral.rho.shape[1]))
+    table[elements.material] = spectral.rho
+    return table[fine.material]
