@@ -80,6 +80,7 @@ class Courtyard:
     variant: str = "louvre"            # "louvre" or "stanislas" (pink-filtered fluorescent)
     dimmers: dict[str, float] = field(default_factory=dict)  # by kind
     target_patches: int = 200_000
+    operator_patches: int | None = None  # two levels (docs/radiosity.md): coarse elements
     spectral_samples: int = 8
     gather_rays: int = 256
     grid_spacing: float = 1.0          # wall points (m)
@@ -402,6 +403,7 @@ def study_toml(c: Courtyard, files: dict[str, str], generator_args: str) -> str:
     out += [
         "", "[solver]",
         f"target_patches = {c.target_patches}",
+        *([f"operator_patches = {c.operator_patches}"] if c.operator_patches else []),
         f"spectral_samples = {c.spectral_samples}",
         f"gather_rays = {c.gather_rays}",
     ]
@@ -483,6 +485,10 @@ FULL = Courtyard(
     description="Four facades x 40 bays, 3,000 luminaires in 18 networks (paper section 2).",
     dimmers=DEFAULT.dimmers,
     target_patches=140_000,  # ≈ 2.0·10⁵ patches: the columns' slivers add ~50 % to the ask
+    # The one-level operator at 2·10⁵ patches would be ≈ 105 GiB (README, "Scale"): solve on
+    # ≈ 2.6·10⁴ elements (the 22,418 LOD-0 triangles are the floor; 1.7 GiB of operator) and
+    # gather onto the fine patches.
+    operator_patches=6_000,
 )
 PLATE6 = dataclasses.replace(
     FULL, name="Courtyard, Plate 6 variation: warm columns",
