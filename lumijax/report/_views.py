@@ -295,8 +295,12 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
                 title_font_size=font + 1, label_font_size=font, color="black",
                 font_family="arial", fmt="%.3g"),
         )
+        bar = pl.scalar_bar
+        # perspective views fill the frame: give the bar and the texts a white backing
+        bar.SetDrawBackground(True)
+        bar.GetBackgroundProperty().SetColor(1.0, 1.0, 1.0)
+        bar.GetBackgroundProperty().SetOpacity(0.85)
         if levels:
-            bar = pl.scalar_bar
             from vtkmodules.vtkCommonCore import vtkDoubleArray
 
             arr = vtkDoubleArray()
@@ -318,14 +322,19 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
                 lines.points = np.asarray(lines.points) + lift * np.asarray(
                     lines.point_data["Normals"])
                 pl.add_mesh(lines, color="black", line_width=max(2, h // 400), lighting=False)
+        texts = []
         if title:
-            pl.add_text(title, position=(int(0.02 * w), int(0.94 * h)), font_size=font + 2,
-                        color="black", font="arial")
+            texts.append(pl.add_text(title, position=(int(0.02 * w), int(0.94 * h)),
+                                     font_size=font + 2, color="black", font="arial"))
         note = f"{name} ({unit}), {'log' if scale == 'log' else 'linear'} scale"
         if levels:
             note += "; iso-lines at " + ", ".join(_fmt(x) for x in levels) + f" {unit}"
-        pl.add_text(note, position=(int(0.02 * w), int(0.905 * h)), font_size=font - 2,
-                    color="#444444", font="arial")
+        texts.append(pl.add_text(note, position=(int(0.02 * w), int(0.905 * h)),
+                                 font_size=font - 2, color="#444444", font="arial"))
+        for t in texts:
+            prop = t.GetTextProperty()
+            prop.SetBackgroundColor(1.0, 1.0, 1.0)
+            prop.SetBackgroundOpacity(0.85)
         _place(pl, cam)
         return _shot(pl), (vmin, vmax)
     finally:
