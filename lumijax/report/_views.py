@@ -21,7 +21,7 @@ from ._tonemap import auto_ev100, tone_map
 
 __all__ = ["render_realistic", "render_falsecolour_view", "png_bytes", "write_png", "in_view",
            "auto_exposure",
-           "view_colours", "fitting_colour", "beam_outline"]
+           "view_colours", "fitting_colour", "fitting_rgb", "beam_outline"]
 
 BACKGROUND = "#15181e"  # a night sky: dark, slightly blue, so black shadows still read as shadow
 
@@ -160,15 +160,24 @@ def _merge(template, frames, scale: float):
     return pv.PolyData(allp, faces=np.column_stack([np.full(len(allt), 3), allt]).ravel())
 
 
-def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = True) -> None:
+def fitting_rgb(scene, dimmers, n_points: int) -> np.ndarray:
+    """Per-point uint8 colours of the merged fitting faces (``n_points`` per luminaire)."""
+    level = dict(zip(scene.network_names, np.asarray(dimmers, np.float64), strict=True))
+    colours = np.stack([fitting_colour(lum, level[lum.network]) for lum in scene.luminaires])
+    return np.round(np.repeat(colours, n_points, axis=0) * 255).astype(np.uint8)
+
+
+def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = True):
     """Luminaires as small glowing fittings (a dark can with a face in the lamp's colour),
-    area sources as glowing rectangles; with ``markers``, aim lines and half-peak beam cones."""
+    area sources as glowing rectangles; with ``markers``, aim lines and half-peak beam cones.
+    Returns the merged faces mesh (None without luminaires), to recolour when dimmers move."""
     import pyvista as pv
 
     dist = float(np.linalg.norm(np.subtract(cam.position, cam.target)))
     r = float(np.clip(0.004 * dist, 0.03, 0.25))
     level = dict(zip(scene.network_names, np.asarray(dimmers, np.float64), strict=True))
     beams: dict[str, tuple] = {}
+    faces = None
     if scene.luminaires:
         # one mesh for all cans and one for all faces: hundreds of actors draw slowly
         can_t = _template(pv.Cylinder(center=(0, 0, -0.6), direction=(0, 0, 1), radius=1.0,
@@ -179,10 +188,7 @@ def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = Tr
                   for lum in scene.luminaires]
         cans = _merge(can_t, frames, r)
         faces = _merge(face_t, frames, r)
-        colours = np.stack([fitting_colour(lum, level[lum.network])
-                            for lum in scene.luminaires])
-        faces.point_data["rgb"] = np.round(np.repeat(colours, face_t[0].shape[0], axis=0)
-                                           * 255).astype(np.uint8)
+        faces.point_data["rgb"] = fitting_rgb(scene, dimmers, face_t[0].shape[0])
         pl.add_mesh(cans, color=(0.12, 0.12, 0.13), lighting=False)
         pl.add_mesh(faces, scalars="rgb", rgb=True, lighting=False, show_scalar_bar=False)
     for lum in scene.luminaires:
@@ -215,6 +221,7 @@ def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = Tr
                                      a.origin + a.v]), faces=[4, 0, 1, 2, 3])
         pl.add_mesh(quad, color=fitting_colour(a, level[a.network]), lighting=False,
                     culling="back")
+    return faces
 
 
 def render_realistic(surface, cam: Camera, dimmers, scene=None, *, ev: float | None = None,
@@ -331,6 +338,8 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
             note += "; iso-lines at " + ", ".join(_fmt(x) for x in levels) + f" {unit}"
         texts.append(pl.add_text(note, position=(int(0.02 * w), int(0.905 * h)),
                                  font_size=font - 2, color="#444444", font="arial"))
+        pl.add_axes(interactive=False, line_width=3, color="black",
+                    viewport=(0.0, 0.0, 0.12, 0.18))
         for t in texts:
             prop = t.GetTextProperty()
             prop.SetBackgroundColor(1.0, 1.0, 1.0)

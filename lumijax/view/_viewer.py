@@ -11,7 +11,14 @@ import numpy as np
 
 from ..report._camera import Camera, cameras_of
 from ..report._falsecolour import DEFAULT_CMAP, N_COLOURS, _cmap, lux_to_rgb
-from ..report._views import BACKGROUND, _fittings, _place, auto_exposure, view_colours
+from ..report._views import (
+    BACKGROUND,
+    _fittings,
+    _place,
+    auto_exposure,
+    fitting_rgb,
+    view_colours,
+)
 
 __all__ = ["DimmerViewer", "build_viewer", "MODES"]
 
@@ -64,7 +71,7 @@ class DimmerViewer:
         self.fc_actor.SetVisibility(False)
         self.bar = pl.scalar_bar
         self.bar.SetVisibility(False)
-        _fittings(pl, study.scene, self.dimmers, camera, markers=False)
+        self.fittings = _fittings(pl, study.scene, self.dimmers, camera, markers=False)
         _place(pl, camera)
 
     def _luminance(self) -> np.ndarray:
@@ -80,6 +87,11 @@ class DimmerViewer:
     def _update(self) -> None:
         self.mesh.point_data["rgb"] = self.colours()
         self.fc_mesh.point_data["luminance"] = self._luminance()
+        if self.fittings is not None:  # the fittings glow with their dimmer too
+            lums = self.study.scene.luminaires
+            self.fittings.point_data["rgb"] = fitting_rgb(
+                self.study.scene, self.dimmers, self.fittings.n_points // len(lums))
+            self.fittings.Modified()
         self.mesh.Modified()
         self.fc_mesh.Modified()
         self.plotter.render()

@@ -39,12 +39,16 @@ def test_slider_at_zero_darkens_exactly_its_network(viewer):
     left = viewer.surface.points[:, 0] < 4.0
     assert viewer.networks == ("left", "right")
     before = viewer.colours().copy()
+    glow0 = np.asarray(viewer.fittings.point_data["rgb"]).reshape(2, -1, 3).copy()  # L1, R1
     img0 = viewer.screenshot()
     assert before[left].max() > 100 and before[~left].max() > 50  # both rooms lit
     viewer.set_dimmer("left", 0.0)
     after = viewer.colours()
     assert after[left].max() == 0  # black: its light was all the left room had
     np.testing.assert_array_equal(after[~left], before[~left])
+    glow1 = np.asarray(viewer.fittings.point_data["rgb"]).reshape(2, -1, 3)
+    assert glow1[0].max() < glow0[0].max() - 100  # the left fitting went out
+    np.testing.assert_array_equal(glow1[1], glow0[1])
     # the picture: a floor point of each room, found by an independent projection
     img1 = viewer.screenshot()
     size = (img0.shape[1], img0.shape[0])
