@@ -202,6 +202,13 @@ def sphere_case(out: Path, rho: float, subdivisions: int, patch_size: float, rep
                 "1 % / 3 %",
                 abs(indirect.mean() / ref_ind - 1) <= 0.01
                 and abs(worst_ind / ref_ind - 1) <= 0.03, "", f"{gather_rays} gather rays"))
+    # The direct light alone: what the patches receive from the source (their centroid values ×
+    # area) against the flux Φ that lands on the walls. Any excess is point sampling of the
+    # inverse-square law on flat facets, not inter-reflection, and scales every value above.
+    direct = float(np.sum(sol.patch_direct[0] * sol.patches.area))
+    rep.add(Row(case, "direct flux on the patches, Σ A·E_direct (lm)", f"Φ = {flux:.0f}",
+                f"{direct:.1f}", pct(direct / flux - 1),
+                notes="informative: centroid sampling of the direct light"))
     return res
 
 
@@ -569,20 +576,77 @@ def machine() -> list[str]:
     ]
 
 
-def markdown(rep: Report, args) -> str:
-    lines = ["# Validation results", "",
-             "Written by `python studies/validation/run_validation.py"
-             + (" --quick" if args.quick else "") + "`; see `README.md` for the cases.", ""]
+#: Sections in run order, and the prefix of their rows' first cell.
+SECTIONS = {"sphere": "1 sphere", "cube": "2 cube", "furnace": "2 furnace", "radiance": "3 room"}
+
+
+def _row_line(r: Row) -> str:
+    return "| " + " | ".join(c.replace("|", "\\|") for c in r.cells()) + " |"
+
+
+def _kept_sections(previous: str, rerun: set[str]) -> tuple[dict[str, list[str]], list[str], str]:
+    """The table lines of the sections *not* re-run, from a previous RESULTS.md, with that run's
+    notes and date, so that a partial run (``--only``) updates its rows and keeps the others
+    verbatim instead of dropping them."""
+    kept: dict[str, list[str]] = {s: [] for s in SECTIONS if s not in rerun}
+    notes, date = [], "an earlier run"
+    for line in previous.splitlines():
+        if line.startswith("- date: ") and date == "an earlier run":
+            date = line.removeprefix("- date: ").strip()
+        elif line.startswith("- ") and not line.startswith(("- machine", "- `nproc`", "- lumijax ")):
+            notes.append(line[2:])
+        for s in kept:
+            if line.startswith(f"| {SECTIONS[s]}"):
+                kept[s].append(line)
+    return kept, notes, date
+
+
+def _changes(rep: Report, previous: str, date: str) -> str:
+    """The re-run rows whose error column changed, old → new, read from the previous table."""
+    old = {}
+    for line in previous.splitlines():
+        cells = [c.strip() for c in line.strip("| ").split(" | ")]
+        if len(cells) >= 5 and cells[0][:1].isdigit():
+            old[(cells[0], cells[1])] = cells[4]
+    changed = [f"{r.case}, {r.quantity}: {old[(r.case, r.quantity)]} → {r.error}"
+               for r in rep.rows
+               if (r.case, r.quantity) in old and old[(r.case, r.quantity)] != r.error]
+    if not changed:
+        return f"No error changed against the run of {date}."
+    return f"Errors changed against the run of {date}: " + "; ".join(changed) + "."
+
+
+def markdown(rep: Report, args, previous: str | None = None) -> str:
+    only = [s for s in SECTIONS if s in set(args.only.split(","))]
+    kept, old_notes, old_date = ({}, [], "") if previous is None else _kept_sections(
+        previous, set(only))
+    cmd = "python studies/validation/run_validation.py" + (" --quick" if args.quick else "")
+    if kept:
+        cmd += f" --only {','.join(only)}"
+    lines = ["# Validation results", "", f"Written by `{cmd}`; see `README.md` for the cases.", ""]
+    if kept:
+        lines += [f"Re-run here: {', '.join(only)}. The rows of {', '.join(kept)} are copied "
+                  f"unchanged from the run of {old_date} (same machine kind).", ""]
     lines += machine() + [""]
     lines.append("| " + " | ".join(HEADER) + " |")
     lines.append("|" + "---|" * len(HEADER))
-    for r in rep.rows:
-        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in r.cells()) + " |")
+    table = []
+    for s in SECTIONS:
+        if s in kept:
+            table += kept[s]
+        else:
+            table += [_row_line(r) for r in rep.rows if r.case.startswith(SECTIONS[s])]
+    lines += table + [""]
+    passed = sum(line.split(" | ")[6] == "pass" for line in table)
+    failed = sum(line.split(" | ")[6] == "**FAIL**" for line in table)
+    lines.append(f"{passed} checks pass, {failed} fail.")
     lines.append("")
-    fails = [r for r in rep.rows if r.ok is False]
-    lines.append(f"{sum(r.ok is True for r in rep.rows)} checks pass, {len(fails)} fail.")
-    lines.append("")
-    for n in rep.notes:
+    notes = list(rep.notes)
+    if previous is not None:
+        notes.append(_changes(rep, previous, old_date))
+    if "radiance" in kept:  # the Radiance settings note belongs to the kept rows
+        notes = [n for n in old_notes if n.startswith("Radiance:")] + notes
+    for n in notes:
         lines.append(f"- {n}")
     return "\n".join(lines) + "\n"
 
@@ -594,7 +658,12 @@ def main(argv=None) -> int:
     ap.add_argument("--no-radiance", action="store_true")
     ap.add_argument("--results", type=Path, default=HERE / "RESULTS.md",
                     help="where to write the table (default studies/validation/RESULTS.md)")
-    ap.add_argument("--only", default="sphere,cube,furnace,radiance")
+    ap.add_argument("--only", default=",".join(SECTIONS),
+                    help="comma-separated sections to run (sphere, cube, furnace, radiance); "
+                         "the other sections' rows are kept from the existing --results file")
+    ap.add_argument("--previous", type=Path, default=None,
+                    help="results file to keep the other sections' rows from and to compare "
+                         "with (default: --results)")
     args = ap.parse_args(argv)
     only = set(args.only.split(","))
     tmp = None
@@ -630,7 +699,13 @@ def main(argv=None) -> int:
         "5.7 (diffuse reflections with internal obstructions; Ashdown reports its Table 19 as "
         "incorrect), 5.9 onwards and every experimental case. See README.md."
     )
-    text = markdown(rep, args)
+    partial = set(SECTIONS) - only
+    previous = None
+    before = args.previous or args.results
+    if partial and before.exists() and not args.quick:
+        previous = before.read_text(encoding="utf-8")
+        print(f"keeping the rows of {', '.join(sorted(partial))} from {before}")
+    text = markdown(rep, args, previous)
     args.results.write_text(text, encoding="utf-8")
     print(f"\nwrote {args.results}")
     if tmp is not None:
