@@ -2,12 +2,17 @@
 
     python benchmarks/courtyard.py                        # full scale: 4 × 40 bays, 3,000 lights
     python benchmarks/courtyard.py --bays 10 --target-patches 20000   # a quarter, to extrapolate
+    python benchmarks/courtyard.py --operator-patches 0   # one level (the dense P² operator)
 
 Generates the study (studies/courtyard/make_courtyard.py) into a temporary folder, then runs the
 stages of ``lumijax.compute`` one after the other in this process, as ``solve_lighting`` does:
 load (config + scene), direct light on the grid points, mesh, partition, operator build, direct
 light on the patches, spectral setup + gather rays, the batched solve of every network, and
-writing results. A sampling thread reads the process RSS every 20 ms, so each stage reports its
+writing results. With ``--operator-patches`` (default: the full study's, two levels,
+docs/radiosity.md) the operator and the solve run on coarse elements and the fine stages follow:
+direct light on the fine patches (the elements get its area means), the coarse solve, then the
+fine gather rays and the reflection onto the fine patches, and patches.vtp of the fine level.
+A sampling thread reads the process RSS every 20 ms, so each stage reports its
 own peak (not only the process high-water mark); the table prints the peak and its rise over
 the RSS at the stage's start. Without a cache: every run builds the operator.
 """
@@ -66,6 +71,8 @@ def main(argv=None) -> None:
     p.add_argument("--spectral-samples", type=int, default=8)
     p.add_argument("--gather-rays", type=int, default=256)
     p.add_argument("--max-block", type=int, default=1024)
+    p.add_argument("--operator-patches", type=int, default=None,
+                   help="elements of the two-level operator (default: the study's; 0: one level)")
     p.add_argument("--stop-after", default=None, help="stage name to stop after")
     args = p.parse_args(argv)
 
@@ -73,13 +80,21 @@ def main(argv=None) -> None:
     c = dataclasses.replace(
         gen.FULL, facades=tuple(args.facades), bays=args.bays, floods_per_facade=args.floods,
         lod=args.lod, target_patches=args.target_patches,
-        spectral_samples=args.spectral_samples, gather_rays=args.gather_rays)
+        spectral_samples=args.spectral_samples, gather_rays=args.gather_rays,
+        operator_patches=(gen.FULL.operator_patches if args.operator_patches is None
+                          else args.operator_patches or None))
     folder = Path(tempfile.mkdtemp(prefix="lumijax-courtyard-"))
     gen.write_study(c, folder / "study.toml", folder / "assets", "benchmark")
 
     from lumijax import load_study
     from lumijax.direct import direct_illuminance
     from lumijax.lighting import LightingSolution
+    from lumijax.lighting._final_gather import (
+        build_fine_gather,
+        element_direct,
+        fine_reflectance,
+        reflect_onto_fine,
+    )
     from lumijax.lighting._gather import build_gather
     from lumijax.lighting._solution import shoot
     from lumijax.lighting._solve import _emission_groups, _grouped_scene, auto_patch_size
@@ -127,6 +142,15 @@ def main(argv=None) -> None:
                                                  patch_size=size),
                     lambda pt: f"{pt.n:,} patches of ~{size:.2f} m")
     st["patches"] = patches.n
+    fine = None
+    if c.operator_patches:
+        esize = auto_patch_size(float(tri.areas.sum()), c.operator_patches)
+        fine = patches
+        patches = stage("mesh elements", lambda: mesh_patches(
+            tri.vertices, tri.material, tri.group, patch_size=esize),
+            lambda pt: f"{pt.n:,} elements of ~{esize:.2f} m (operator_patches "
+                       f"{c.operator_patches:,})")
+        st["elements"] = patches.n
     caster = sc.raycaster
     part = stage("partition", lambda: partition(patches, max_block=args.max_block,
                                                 occluders=caster),
@@ -138,9 +162,14 @@ def main(argv=None) -> None:
                          f"{o.info['lowrank_pairs']}/{o.info['lowrank_candidates']} block pairs "
                          f"low rank, {o.info['rays']:,} rays ({o.info['ray_time_s']:.0f} s)")
     st["operator_bytes"] = op.nbytes
-    dpatch = stage("direct light, patches",
-                   lambda: direct_illuminance(gscene, patches.centroid, patches.normal),
-                   lambda d: f"{d.shadow_rays:,} shadow rays")
+    if fine is None:
+        dpatch = stage("direct light, patches",
+                       lambda: direct_illuminance(gscene, patches.centroid, patches.normal),
+                       lambda d: f"{d.shadow_rays:,} shadow rays")
+    else:
+        dfine, dpatch = stage("direct light, fine patches (+ element means)",
+                              lambda: element_direct(gscene, fine, patches),
+                              lambda d: f"{fine.n:,} patches, {d[1].shadow_rays:,} shadow rays")
     spectral = stage("spectral setup", lambda: SpectralSetup.build(sc, patches.material,
                                                                    c.spectral_samples),
                      lambda s: f"{s.n} samples")
@@ -161,6 +190,24 @@ def main(argv=None) -> None:
                  lambda s: f"{len(groups)} emission groups × {spectral.n} λ = "
                            f"{len(groups) * max(spectral.n, 1)} columns, "
                            f"{int(s.result.iterations)} iterations")
+    lighting, b_elements = None, shot.value
+    if fine is not None:
+        fg = stage("fine gather rays", lambda: build_fine_gather(fine, patches, caster,
+                                                                rays=c.gather_rays),
+                   lambda g: f"{fine.n:,} patches × {c.gather_rays} rays, {len(g.weight):,} "
+                             f"links ({(g.point.nbytes + g.patch.nbytes + g.weight.nbytes) / 2**20:.0f} MiB)")
+        frho = fine_reflectance(spectral, patches, fine)
+        weights = [spectral.weights(g[1]) for g in groups]
+        fb, fxyz, find = stage("fine reflect (gather B of the elements)",
+                               lambda: reflect_onto_fine(fg, frho, dfine.by_network, weights,
+                                                         b_elements),
+                               lambda r: f"{r[0].shape[0]} groups × {fine.n:,} patches")
+        lighting = dataclasses.replace(
+            blank, patch_direct=dpatch.by_network, radiosity=shot.radiosity,
+            radiosity_xyz=shot.radiosity_xyz, fine_patches=fine, fine_gather=fg, fine_rho=frho,
+            fine_patch_direct=dfine.by_network, fine_patch_indirect=find, fine_radiosity=fb,
+            fine_radiosity_xyz=fxyz)
+        del fb, fxyz, find
     del shot
 
     from lumijax import compute, write_results
@@ -171,6 +218,13 @@ def main(argv=None) -> None:
     res = compute(study, indirect=False)
     stage("write results", lambda: write_results(res, out, images=True),
           lambda paths: f"{len(paths)} files")
+    if lighting is not None:
+        from lumijax.results._vtk import write_patches_vtp
+
+        k = len(groups)
+        stage("write patches.vtp (fine)",
+              lambda: write_patches_vtp(lighting, np.ones(k), out / "patches.vtp"),
+              lambda path: f"{path.stat().st_size / 2**20:.0f} MiB")
     sampler.running = False
     _table(rows, c, st)
 

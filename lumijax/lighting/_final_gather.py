@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from jaxtyping import Float
 
-from ._gather import GatherOperator, build_gather
+from ._gather import GatherOperator
 
 __all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather", "reflect_onto_fine"]
 
@@ -71,15 +71,31 @@ def build_fine_gather(fine, elements, caster, *, rays: int, chunk: int = 32_768)
     links are stored as int32/float32: peak memory is one chunk's rays, not all of them.
     """
     # a centroid lies on its own surface: start the rays a hair in front of it
+    from ._gather import _cosine_directions, _frames
+
     lift = 10.0 * float(getattr(caster, "epsilon", 1e-6))
     origins = fine.centroid + lift * fine.normal
+    rng = np.random.default_rng(0)
+    local = _cosine_directions(rays)
+    src = np.asarray(elements.source_triangle)
+    tri_normals = np.zeros((int(src.max()) + 1 if len(src) else 0, 3))
+    tri_normals[src] = elements.normal
     pts, pat, wts = [], [], []
-    for i, s in enumerate(range(0, fine.n, chunk)):
-        g = build_gather(origins[s:s + chunk], fine.normal[s:s + chunk], elements, caster,
-                         rays=rays, seed=i)
-        pts.append(g.point.astype(np.int32) + np.int32(s))
-        pat.append(g.patch.astype(np.int32))
-        wts.append(g.weight.astype(np.float32))
+    for s in range(0, fine.n, chunk):
+        p = origins[s:s + chunk]
+        frames = _frames(np.asarray(fine.normal[s:s + chunk], np.float64), rng)
+        dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
+        o = np.repeat(p, rays, axis=0)
+        tri, dist = caster.first_hit(o, dirs)
+        hit = tri >= 0
+        # one-sided surfaces, as in build_gather: a back face blocks but sends nothing
+        hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
+        elem = _element_of(elements, o[hit] + dirs[hit] * dist[hit, None], tri[hit])
+        key = np.repeat(np.arange(len(p), dtype=np.int64), rays)[hit] * elements.n + elem
+        uniq, counts = np.unique(key, return_counts=True)
+        pts.append((uniq // elements.n + s).astype(np.int32))
+        pat.append((uniq % elements.n).astype(np.int32))
+        wts.append((counts / rays).astype(np.float32))
     return GatherOperator(n_points=fine.n, n_patches=elements.n, point=_cat(pts, np.int32),
                           patch=_cat(pat, np.int32), weight=_cat(wts, np.float32))
 
@@ -144,13 +160,40 @@ def element_direct(gscene, fine, elements, *, progress=None):
 
 def element_of(fine, elements) -> np.ndarray:
     """Index of the element holding each fine patch (same source triangle, nearest centroid)."""
-    from scipy.spatial import cKDTree
+    return _element_of(elements, fine.centroid, np.asarray(fine.source_triangle))
 
-    from ._gather import _patch_of_hits
 
-    tree = cKDTree(elements.centroid)
-    return np.asarray(_patch_of_hits(tree, np.asarray(elements.source_triangle),
-                                     fine.centroid, np.asarray(fine.source_triangle)), np.int64)
+def _element_of(elements, points, tri, few: int = 64, block: int = 65_536) -> np.ndarray:
+    """The element of triangle ``tri`` whose centroid is nearest each point.
+
+    A triangle's elements are contiguous (``mesh_patches`` keeps them in order), and at the
+    coarse level most triangles are one element: those are a lookup, triangles of up to ``few``
+    elements a padded brute-force search, and only larger ones (the ground) a k-d tree. (The
+    tree alone, as in ``build_gather``, falls back to a Python loop whenever a big element's
+    centroid is farther than 16 small neighbours' — most hits, on a courtyard.)
+    """
+    src = np.asarray(elements.source_triangle)
+    lo = np.searchsorted(src, tri, side="left")
+    n = np.searchsorted(src, tri, side="right") - lo
+    out = lo.astype(np.int64)
+    c = elements.centroid
+    for top in (4, 16, few):  # pad each bucket only to its own largest triangle
+        sel = np.flatnonzero((n > 1) & (n <= top) & (n > top // 4 if top > 4 else True))
+        for b in range(0, len(sel), block):
+            i = sel[b:b + block]
+            cand = lo[i, None] + np.arange(int(n[i].max()))[None]
+            valid = cand < (lo[i] + n[i])[:, None]
+            v = c[np.where(valid, cand, lo[i, None])] - points[i, None]
+            d = np.where(valid, np.einsum("hkc,hkc->hk", v, v), np.inf)
+            out[i] = cand[np.arange(len(i)), np.argmin(d, axis=1)]
+    many = np.flatnonzero(n > few)
+    if len(many):
+        from scipy.spatial import cKDTree
+
+        from ._gather import _patch_of_hits
+
+        out[many] = _patch_of_hits(cKDTree(c), src, points[many], tri[many])
+    return out
 
 
 def final_gather(
