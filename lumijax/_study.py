@@ -69,6 +69,7 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
         max_block=c.max_block, method=c.method, tolerance=c.tolerance,
         max_iterations=c.max_iterations, gather_rays=c.gather_rays, precision=c.precision,
         spectral_samples=c.spectral_samples, operator_patches=c.operator_patches,
+        refine=c.refine, refine_threshold=c.refine_threshold,
     )
     values.update(overrides)
     return SolverSettings(**values)

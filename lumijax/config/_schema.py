@@ -416,6 +416,8 @@ class SolverConfig(_Model):
     precision: Literal["float32", "float64"] = "float32"
     spectral_samples: Annotated[int, Field(ge=0, le=64)] = 16
     cache: bool = True
+    refine: Annotated[int, Field(ge=0, le=6)] = 0
+    refine_threshold: Annotated[float, Field(gt=0, le=1)] = 0.5
     operator_patches: Annotated[int, Field(ge=10, le=10_000_000)] | None = None
 
 

@@ -36,6 +36,8 @@ class SolverSettings:
     gather_rays: int = 512
     precision: str = "float32"
     spectral_samples: int = 16
+    refine: int = 0  # most levels of adaptive refinement (docs/radiosity.md, "Refinement")
+    refine_threshold: float = 0.5
     operator_patches: int | None = None  # two levels: elements for the operator (docs/radiosity.md)
 
 
@@ -115,6 +117,12 @@ def solve_lighting(
     t = time.perf_counter()
     size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
+    if settings.refine:
+        from ..mesh import refine_patches
+
+        patches = refine_patches(
+            patches, lambda p: direct_illuminance(gscene, p.centroid, p.normal).by_network,
+            settings.refine, settings.refine_threshold).patches
     caster = scene.raycaster
     patches, fine = _two_levels(patches, tri, size, settings.operator_patches)
     timing["mesh"] = time.perf_counter() - t

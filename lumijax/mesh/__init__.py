@@ -10,3 +10,8 @@ from ._patches import (
     mesh_patches as mesh_patches,
     subdivide_triangles as subdivide_triangles,
 )
+from ._refine import (
+    Refinement as Refinement,
+    edge_neighbours as edge_neighbours,
+    refine_patches as refine_patches,
+)
