@@ -143,6 +143,8 @@ def edge_neighbours(
             ii.append(np.repeat(q, counts))
             jj.append(inb[np.concatenate(hits).astype(np.int64)] if counts.sum() else
                       np.zeros(0, np.int64))
+    if not ii:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
     i, j = np.concatenate(ii), np.concatenate(jj)
     # each unordered pair once: i < j, or j not itself queried (then only (i, j) was found)
     once = (i < j) | ((i > j) & ~among[j])
