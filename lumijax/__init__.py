@@ -24,9 +24,9 @@ except PackageNotFoundError:  # running from a source tree that was never instal
     __version__ = "0.0.0+unknown"
 
 from ._study import Study as Study, compute as compute, load_study as load_study
+from .optimise import Optimisation as Optimisation, optimise as optimise
 from .results import (
     GridResult as GridResult,
     Results as Results,
     write_results as write_results,
 )
-from .optimise import Optimisation as Optimisation, optimise as optimise
