@@ -105,22 +105,28 @@ def _averaging(faces: np.ndarray, n_vertices: int, area: np.ndarray):
 def surface_light(results, *, illuminance: bool = False, target_patches: int = 3000) -> SurfaceLight:
     """The surfaces of a computed study with their light per network.
 
-    From the radiosity patches when inter-reflection was solved (colour from the spectral
-    solution, or neutral D65 white after a luminous-only solve). Without patches
+    From the radiosity patches when inter-reflection was solved (the fine patches of a
+    two-level solve; colour from the spectral solution, or neutral D65 white after a
+    luminous-only solve). Without patches
     (``indirect = false`` or ``shadows=False``), the scene's triangles are cut into about
     ``target_patches`` patches and lit by direct light alone (ρE/π), with neutral colour.
     ``illuminance`` also keeps the illuminance on the surfaces (lx), for false-colour views.
     """
     lighting = results.lighting
     scene = lighting.scene
-    if lighting.patches is not None and lighting.patches.n:
-        p = lighting.patches
-        b = np.asarray(lighting.radiosity, np.float64)  # (K, P)
-        if lighting.radiosity_xyz is not None:
-            bxyz = np.moveaxis(np.asarray(lighting.radiosity_xyz, np.float64), 1, 2)  # (K, P, 3)
+    # a two-level solve draws its fine patches (the display level); otherwise the patches
+    p = getattr(lighting, "display_patches", lighting.patches)
+    if p is not None and p.n:
+        b = np.asarray(getattr(lighting, "display_radiosity", lighting.radiosity), np.float64)
+        b_xyz = getattr(lighting, "display_radiosity_xyz", lighting.radiosity_xyz)
+        if b_xyz is not None:
+            bxyz = np.moveaxis(np.asarray(b_xyz, np.float64), 1, 2)  # (K, P, 3)
         else:
             bxyz = b[..., None] * _D65
-        e = lighting.patch_illuminance() if illuminance else None
+        e = None
+        if illuminance:
+            e = (lighting.display_patch_illuminance() if hasattr(
+                lighting, "display_patch_illuminance") else lighting.patch_illuminance())
     else:
         p, b, e = _direct_patches(scene, target_patches)
         bxyz = b[..., None] * _D65
