@@ -160,6 +160,12 @@ def _view(config: Path, *, web: bool, host: str, port: int, camera: str | None,
         console.print("serving the viewer (Ctrl-C to stop)")
         serve(viewer, host=host, port=port)
         return 0
+    import os
+
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
+                                                 or os.environ.get("WAYLAND_DISPLAY")):
+        raise OutputError("no display to open a window on (DISPLAY is not set); use "
+                          "'lumijax view --web' and open the address it prints")
     try:
         viewer = build_viewer(study, results, camera=cam)
         viewer.plotter.show()

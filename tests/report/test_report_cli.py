@@ -89,6 +89,15 @@ def test_view_web_names_the_extra_when_trame_is_missing(write_study, monkeypatch
     assert "lumijax[view]" in err and "trame" in err
 
 
+def test_view_without_a_display_points_to_web(write_study, monkeypatch, capsys):
+    cfg = write_study(ROOM)
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", str(cfg)]) == 1
+    assert "lumijax view --web" in capsys.readouterr().err
+
+
 def test_view_unknown_camera(write_study, capsys):
     cfg = write_study(ROOM)
     pytest.importorskip("pyvista")
