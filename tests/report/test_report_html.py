@@ -117,7 +117,7 @@ def test_optimisation_section_only_after_an_optimisation(two_rooms, tmp_path):
     assert rows["Eavg"][:2] == ["61", "50.2"]
     assert rows["left"][:2] == ["1", "0.25"]  # dimmer before (config) and after
     assert rows["L1"] == ["5", "-3", "0"]
-    assert "Not met: floor_right: Eavg 230 lx &lt; 500 lx" in sec
+    assert "<li>floor_right: Eavg 230 lx &lt; 500 lx</li>" in sec
     # the convergence plot is there, as an inline PNG
     assert re.search(r'<img src="data:image/png;base64,[^"]+" alt="objective per iteration"', sec)
 
