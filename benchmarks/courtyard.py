@@ -67,7 +67,7 @@ def main(argv=None) -> None:
     p.add_argument("--bays", type=int, default=40)
     p.add_argument("--floods", type=int, default=24)
     p.add_argument("--lod", type=int, default=0)
-    p.add_argument("--target-patches", type=int, default=200_000)
+    p.add_argument("--target-patches", type=int, default=140_000)  # configs/courtyard.toml
     p.add_argument("--spectral-samples", type=int, default=8)
     p.add_argument("--gather-rays", type=int, default=256)
     p.add_argument("--max-block", type=int, default=1024)

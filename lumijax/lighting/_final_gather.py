@@ -135,27 +135,32 @@ def reflect_onto_fine(
 
 def element_direct(gscene, fine, elements, *, progress=None):
     """``(fine, elements)`` direct light (:class:`lumijax.direct.DirectLighting`): exact on the
-    fine patches; each element gets the area mean of the fine patches in it (the fine patch of
-    the same source triangle whose centroid is nearest), so the direct flux the solve reflects
-    is the fine one, not a centroid sample of a spot's hot edge. An element holding no fine
+    fine patches; each element gets the direct flux of the fine patches in it (those of the
+    same source triangle whose nearest element centroid it is) over its area, so the direct
+    flux the solve reflects is the fine one exactly, not a centroid sample of a spot's edge. An element holding no fine
     centroid (possible only where the two cuts of a sliver differ) is sampled at its own
     centroid."""
     from ..direct import DirectLighting, direct_illuminance
 
     d_fine = direct_illuminance(gscene, fine.centroid, fine.normal, progress=progress)
-    owner = element_of(fine, elements)
-    area = np.bincount(owner, weights=fine.area, minlength=elements.n)
-    by = np.stack([np.bincount(owner, weights=fine.area * row, minlength=elements.n)
-                   for row in d_fine.by_network]) if len(d_fine.by_network) else np.zeros(
-        (0, elements.n))
-    empty = area <= 0
-    by = by / np.where(empty, 1.0, area)
+    by, empty = element_means(fine, elements, d_fine.by_network)
     rays = d_fine.shadow_rays
     if empty.any():
         d_e = direct_illuminance(gscene, elements.centroid[empty], elements.normal[empty])
         by[:, empty] = d_e.by_network
         rays += d_e.shadow_rays
     return d_fine, DirectLighting(by_network=by, shadow_rays=rays)
+
+
+def element_means(fine, elements, values: Float[np.ndarray, "src fine"]):
+    """``(src, elements)`` flux of fine-patch irradiances per element over its area, and the
+    elements that hold no fine patch. Dividing by the element's own area, not the fine area
+    assigned to it, keeps Σ A_e E_e equal to the fine flux exactly (both tile each triangle)."""
+    owner = element_of(fine, elements)
+    area = np.bincount(owner, weights=fine.area, minlength=elements.n)
+    by = np.stack([np.bincount(owner, weights=fine.area * row, minlength=elements.n)
+                   for row in np.asarray(values)]).reshape(-1, elements.n)
+    return by / elements.area, area <= 0
 
 
 def element_of(fine, elements) -> np.ndarray:

@@ -171,10 +171,15 @@ class LightingSolution:
             one = dataclasses.replace(
                 sc, luminaires=(dataclasses.replace(lum, network=names[0]),), area_sources=())
             e_pts = sign * direct_illuminance(one, self.points, self.normals).by_network[0]
-            e_patch = None if self.patches is None else sign * direct_illuminance(
-                one, self.patches.centroid, self.patches.normal).by_network[0]
             e_fine = None if self.fine_patches is None else sign * direct_illuminance(
                 one, self.fine_patches.centroid, self.fine_patches.normal).by_network[0]
+            if e_fine is not None:  # two levels: the elements' direct is the fine flux's mean
+                from ._final_gather import element_means
+
+                e_patch = element_means(self.fine_patches, self.patches, e_fine[None])[0][0]
+            else:
+                e_patch = None if self.patches is None else sign * direct_illuminance(
+                    one, self.patches.centroid, self.patches.normal).by_network[0]
             rows.append([names.index(lum.network), lum.spectrum, e_pts, e_patch, e_fine])
         # same network and spectrum: one difference row, so one solve of W columns, not two
         if rows[0][0] == rows[1][0] and rows[0][1] is rows[1][1]:
