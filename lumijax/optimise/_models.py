@@ -35,10 +35,9 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ..direct._direct import support_cosine
-from ..direct._kernels import pair_illuminance
 from ..scene._frames import aim_rotation
 
-__all__ = ["DimmerLight", "AimLight", "build_aim_light"]
+__all__ = ["DimmerLight", "AimLight", "build_aim_light", "operator_dtype"]
 
 
 class DimmerLight(eqx.Module):
@@ -55,40 +54,51 @@ class DimmerLight(eqx.Module):
 
 
 class _Pairs(eqx.Module):
+    """The fixed (luminaire, receiver) pairs of one photometry. What does not depend on the aim
+    is precomputed: the unit direction from the luminaire to the receiver (world frame) and the
+    gain ``scale · cos θ / d²``, so that at any aim a pair costs one rotation and one candela
+    lookup: ``E = gain · I(Rᵀ w)``."""
+
     distribution: object
     source: Int[Array, " pairs"]
     receiver: Int[Array, " pairs"]
+    direction: Float[Array, "pairs 3"]
+    gain: Float[Array, " pairs"]
+
+    def light(self, rot):
+        """Unweighted direct illuminance (lx) of every pair with luminaire rotations ``rot``."""
+        local = jnp.einsum("pij,pi->pj", rot[self.source], self.direction)
+        return self.gain * self.distribution.intensity(local)
 
 
 class AimLight(eqx.Module):
     """The light with some luminaires re-aimed (and/or re-levelled); see the module docstring.
 
     Variables: ``x = [α (networks), tilt (V), pan (V), level (V)]`` (radians for angles), the
-    aim and level blocks present only when optimised.
+    aim and level blocks present only when optimised. The variables, the fixed parts of the
+    light and the result are float64; the pairs and the solve of the inter-reflected change run
+    at the study's precision (float32 by default: 776 k pairs cost half the memory traffic).
     """
 
     base: Float[Array, "net points"]
     base_radiosity: Float[Array, "net patches"] | None
     start_patch: Float[Array, "net patches"] | None
     network: Int[Array, " v"]
-    position: Float[Array, "v 3"]
     frame: Float[Array, "v 3 3"]
     tilt0: Float[Array, " v"]
     pan0: Float[Array, " v"]
     spin: Float[Array, " v"]
-    scale: Float[Array, " v"]
     pairs: tuple[_Pairs, ...]
-    receivers: Float[Array, "r 3"]
-    receiver_normals: Float[Array, "r 3"]
     transport: object | None
     rho: Float[Array, " patches"] | None
     gather_point: Int[Array, " links"] | None
     gather_patch: Int[Array, " links"] | None
     gather_weight: Float[Array, " links"] | None
     n_points: int = eqx.field(static=True)
+    n_receivers: int = eqx.field(static=True)
     aims: bool = eqx.field(static=True)
     levels: bool = eqx.field(static=True)
-    rtol: float = eqx.field(static=True)
+    rtol: float | None = eqx.field(static=True)
 
     @property
     def n_var(self) -> int:
@@ -110,12 +120,12 @@ class AimLight(eqx.Module):
         """Direct light (lx) on all receivers (points, then patches) of the variable
         luminaires at these aims, each scaled by ``weight``."""
         rot = self.frame @ aim_rotation(tilt, pan, self.spin)
-        out = jnp.zeros(self.receivers.shape[0], self.receivers.dtype)
+        out = jnp.zeros(self.n_receivers, self.base.dtype)
         for p in self.pairs:
-            e = pair_illuminance(p.distribution, self.position, rot, self.scale, self.receivers,
-                                 self.receiver_normals, p.source, p.receiver)
-            out = out + jax.ops.segment_sum(e * weight[p.source], p.receiver,
-                                            num_segments=self.receivers.shape[0])
+            dt = p.gain.dtype
+            e = p.light(rot.astype(dt)) * weight.astype(dt)[p.source]
+            out = out + jax.ops.segment_sum(e, p.receiver,
+                                            num_segments=self.n_receivers).astype(out.dtype)
         return out
 
     def __call__(self, x):
@@ -129,22 +139,35 @@ class AimLight(eqx.Module):
         if self.transport is not None:
             from ..solve import solve_radiosity
 
+            dt = operator_dtype(self.transport)
             d_patch = flat[n:] - alpha @ self.start_patch
-            b0 = (self.rho * d_patch)[:, None]
-            db = solve_radiosity(self.transport, self.rho, b0, rtol=self.rtol).value[:, 0]
+            b0 = (self.rho * d_patch).astype(dt)[:, None]
+            db = solve_radiosity(self.transport, self.rho.astype(dt), b0,
+                                 rtol=self.rtol).value[:, 0].astype(e.dtype)
             e = e + jax.ops.segment_sum(db[self.gather_patch] * self.gather_weight,
                                         self.gather_point, num_segments=n)
             b = b + db
         return e, b, alpha
 
 
+def operator_dtype(transport) -> np.dtype:
+    """The precision the study's form factors are stored in (that of its solve): solving in
+    another would convert every block on every product."""
+    bk = transport.buckets[0] if transport.buckets else None
+    data = None if bk is None else getattr(bk, "blocks", getattr(bk, "u", None))
+    return np.dtype(data.dtype if data is not None else transport.area.dtype)
+
+
 def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims: bool,
-                    levels: bool, indirect: bool = True, dtype=np.float64) -> AimLight:
+                    levels: bool, indirect: bool = True, dtype=np.float64,
+                    pair_dtype=None) -> AimLight:
     """Precompute pairs, visibility and the start-aim direct light for luminaires ``variable``
     (indices into ``scene.luminaires``).
 
     ``tilt_span``/``pan_span`` are each luminaire's largest aim change either way (radians):
     the support cone is widened by their sum, which bounds how far the beam axis can turn.
+    ``pair_dtype`` is the precision of the pairs (default: the study's, that of its transport
+    operator, float64 without one); the inter-reflected change is solved at the operator's.
     """
     sc = lighting.scene
     pts = np.asarray(lighting.points, np.float64)
@@ -156,13 +179,15 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
         rcv_n = np.concatenate([nrm, lighting.patches.normal])
     else:
         rcv, rcv_n = pts, nrm
+    if pair_dtype is None:
+        pair_dtype = (operator_dtype(lighting.transport) if lighting.transport is not None
+                      else np.dtype(np.float64))
     n_pts = len(pts)
     lums = [sc.luminaires[i] for i in variable]
     net_index = {n: k for k, n in enumerate(sc.network_names)}
     caster = sc.raycaster if len(sc.triangles) else None
-    pos = np.array([lum.position for lum in lums]).reshape(-1, 3)
     widen = np.asarray(tilt_span) + np.asarray(pan_span) if aims else np.zeros(len(lums))
-    by_phot: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+    by_phot: dict[str, list[tuple[np.ndarray, ...]]] = {}
     for v, lum in enumerate(lums):
         dist = sc.photometries[lum.photometry].distribution
         half = np.arccos(np.clip(support_cosine(dist), -1.0, 1.0)) + widen[v]
@@ -174,36 +199,39 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
         if caster is not None and len(cand):
             blocked = caster.occluded(np.broadcast_to(lum.position, (len(cand), 3)), rcv[cand])
             cand = cand[~blocked]
-        by_phot.setdefault(lum.photometry, []).append((np.full(len(cand), v), cand))
+        # the aim-independent part of the pair kernel (lumijax.direct._kernels._pair)
+        dv = d[cand]
+        r2 = np.maximum(np.einsum("ij,ij->i", dv, dv), 1e-12)
+        w = dv / np.sqrt(r2)[:, None]
+        cos_r = np.maximum(-np.einsum("ij,ij->i", w, rcv_n[cand]), 0.0)
+        by_phot.setdefault(lum.photometry, []).append(
+            (np.full(len(cand), v), cand, w, lum.scale * cos_r / r2))
     pairs = []
     for name, chunks in by_phot.items():
-        src = np.concatenate([c[0] for c in chunks]).astype(np.int32)
-        rec = np.concatenate([c[1] for c in chunks]).astype(np.int32)
-        pairs.append(_Pairs(sc.photometries[name].distribution, jnp.asarray(src),
-                            jnp.asarray(rec)))
+        src, rec, w, gain = (np.concatenate([c[i] for c in chunks]) for i in range(4))
+        pairs.append(_Pairs(sc.photometries[name].distribution, jnp.asarray(src, jnp.int32),
+                            jnp.asarray(rec, jnp.int32), jnp.asarray(w.astype(pair_dtype)),
+                            jnp.asarray(gain.astype(pair_dtype))))
     k = len(sc.networks)
     network = np.array([net_index[lum.network] for lum in lums], np.int32)
     f = jnp.asarray
     model = AimLight(
         base=f(lighting.point_total.astype(dtype)), base_radiosity=None, start_patch=None,
-        network=f(network), position=f(pos.astype(dtype)),
+        network=f(network),
         frame=f(np.array([lum.frame_rotation for lum in lums]).reshape(-1, 3, 3).astype(dtype)),
         tilt0=f(np.radians([lum.tilt for lum in lums]).astype(dtype)),
         pan0=f(np.radians([lum.pan for lum in lums]).astype(dtype)),
         spin=f(np.radians([lum.spin for lum in lums]).astype(dtype)),
-        scale=f(np.array([lum.scale for lum in lums], dtype)),
-        pairs=tuple(pairs), receivers=f(rcv.astype(dtype)), receiver_normals=f(rcv_n.astype(dtype)),
-        transport=None, rho=None, gather_point=None, gather_patch=None, gather_weight=None,
-        n_points=n_pts, aims=aims, levels=levels, rtol=1e-9 if dtype == np.float64 else 1e-5,
+        pairs=tuple(pairs), transport=None, rho=None, gather_point=None, gather_patch=None,
+        gather_weight=None, n_points=n_pts, n_receivers=len(rcv), aims=aims, levels=levels,
+        rtol=None,
     )
     # the variable luminaires' own direct light at the start, per network: taken out of the
     # study's solution so that the model adds it back at whatever aim
     rot0 = model.frame @ aim_rotation(model.tilt0, model.pan0, model.spin)
     start = np.zeros((k, len(rcv)))
     for p in pairs:
-        e = np.asarray(pair_illuminance(p.distribution, model.position, rot0, model.scale,
-                                        model.receivers, model.receiver_normals, p.source,
-                                        p.receiver), np.float64)
+        e = np.asarray(p.light(rot0.astype(p.gain.dtype)), np.float64)
         flat = network[np.asarray(p.source)].astype(np.int64) * len(rcv) + np.asarray(p.receiver)
         start += np.bincount(flat, weights=e, minlength=start.size).reshape(start.shape)
     base = lighting.point_total - start[:, :n_pts]

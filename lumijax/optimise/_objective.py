@@ -36,20 +36,27 @@ TERMS = ("target", "min_lux", "uniformity_min", "max_lux", "max_luminance_cdm2",
 
 
 class _GridTerm(eqx.Module):
+    # Which goals a grid has is static (it decides the residuals' shape); their values are
+    # array leaves, so a fit with other levels of the same kinds of goal compiles nothing.
     start: int = eqx.field(static=True)
     stop: int = eqx.field(static=True)
     target: Float[Array, " n"] | None
-    target_ref: float = eqx.field(static=True)
-    weight: float = eqx.field(static=True)
-    min_lux: float | None = eqx.field(static=True)
-    max_lux: float | None = eqx.field(static=True)
-    uniformity_min: float | None = eqx.field(static=True)
-    max_luminance: float | None = eqx.field(static=True)
-    rho: float | None = eqx.field(static=True)
+    target_ref: Float[Array, ""] | None
+    weight: Float[Array, ""] | None
+    min_lux: Float[Array, ""] | None
+    max_lux: Float[Array, ""] | None
+    uniformity_min: Float[Array, ""] | None
+    max_luminance: Float[Array, ""] | None
+    rho: Float[Array, ""] | None
 
 
 def _hinge(v):
     return jnp.maximum(v, 0.0)
+
+
+def _leaf(v, keep=True):
+    """A scalar goal value as an array leaf, or None where the goal is absent."""
+    return None if v is None or not keep else jnp.asarray(float(v))
 
 
 class Objective(eqx.Module):
@@ -57,9 +64,9 @@ class Objective(eqx.Module):
 
     grids: tuple[_GridTerm, ...]
     power: Float[Array, " net"]
-    energy_weight: float = eqx.field(static=True)
-    constraint_weight: float = eqx.field(static=True)
-    patch_max_luminance: float | None = eqx.field(static=True)
+    energy_weight: Float[Array, ""] | None
+    constraint_weight: Float[Array, ""]
+    patch_max_luminance: Float[Array, ""] | None
     terms: frozenset = eqx.field(static=True, default=frozenset(TERMS))
 
     @classmethod
@@ -67,16 +74,19 @@ class Objective(eqx.Module):
               patch_max_luminance=None) -> Objective:
         grids = []
         for g in goals:
+            has_target = g.target is not None and g.weight > 0
             ref = float(np.mean(g.target)) if g.target is not None else 1.0
             grids.append(_GridTerm(
-                g.start, g.stop, None if g.target is None else jnp.asarray(g.target),
-                ref if ref > 0 else 1.0, g.weight, g.min_lux, g.max_lux, g.uniformity_min,
-                g.max_luminance_cdm2, g.rho,
+                g.start, g.stop, jnp.asarray(g.target) if has_target else None,
+                _leaf(ref if ref > 0 else 1.0, has_target), _leaf(g.weight, has_target),
+                _leaf(g.min_lux, g.min_lux is not None and g.min_lux > 0), _leaf(g.max_lux),
+                _leaf(g.uniformity_min), _leaf(g.max_luminance_cdm2),
+                _leaf(g.rho, g.max_luminance_cdm2 is not None),
             ))
         p = np.asarray(power, np.float64)
         p = p / p.sum() if p.sum() > 0 else p
-        return cls(tuple(grids), jnp.asarray(p), float(energy_weight), float(constraint_weight),
-                   patch_max_luminance)
+        return cls(tuple(grids), jnp.asarray(p), _leaf(energy_weight, energy_weight > 0),
+                   jnp.asarray(float(constraint_weight)), _leaf(patch_max_luminance))
 
     def only(self, *terms: str) -> Objective:
         """The same objective restricted to some residual families (for tests and reports)."""
@@ -91,9 +101,9 @@ class Objective(eqx.Module):
         for g in self.grids:
             eg = e[g.start:g.stop]
             n = g.stop - g.start
-            if g.target is not None and "target" in self.terms and g.weight > 0:
+            if g.target is not None and "target" in self.terms:
                 out.append(jnp.sqrt(g.weight / n) * (eg - g.target) / g.target_ref)
-            if g.min_lux is not None and "min_lux" in self.terms and g.min_lux > 0:
+            if g.min_lux is not None and "min_lux" in self.terms:
                 out.append(jnp.sqrt(c / n) * _hinge(g.min_lux - eg) / g.min_lux)
             if g.uniformity_min is not None and "uniformity_min" in self.terms:
                 avg = jnp.mean(eg)
@@ -110,7 +120,7 @@ class Objective(eqx.Module):
                 and "patch_luminance" in self.terms):
             lmax = self.patch_max_luminance
             out.append(jnp.sqrt(c / b.size) * _hinge(b / jnp.pi - lmax) / lmax)
-        if self.energy_weight > 0 and "energy" in self.terms:
+        if self.energy_weight is not None and "energy" in self.terms:
             out.append(jnp.sqrt(self.energy_weight) * jnp.dot(alpha, self.power)[None])
         if not out:
             return jnp.zeros(1, e.dtype)

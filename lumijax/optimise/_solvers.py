@@ -2,7 +2,9 @@
 
 Every solver honours the box ``lo ≤ x ≤ hi`` exactly:
 
-* jaxopt ``"lbfgsb"`` (the default) and ``"projected_gradient"`` take the box natively;
+* ``"lbfgsb"`` (the default: scipy's L-BFGS-B, the reference Fortran code, driven by one
+  compiled ``value_and_grad`` — one compilation, about one evaluation per step) and jaxopt's
+  ``"projected_gradient"`` take the box natively;
 * optimistix ``"levenberg_marquardt"``, ``"gauss_newton"``, ``"dogleg"`` (least squares on r)
   and ``"bfgs"`` (on f) solve for an unbounded z with ``x = lo + (hi − lo)·(1 + sin z)/2``, a
   map onto the box (MINUIT's transform): every z gives an x inside, so no step can leave it.
@@ -44,6 +46,7 @@ class SolverRun:
     iterations: int = 0
     converged: bool = False
     seconds: float = 0.0
+    evaluations: int = 0  # objective (and gradient) evaluations, line searches included
 
 
 def _value(residuals):
@@ -67,7 +70,9 @@ def minimise(residuals, args, x0, lo, hi, *, solver: str = "lbfgsb", max_steps: 
     t0 = time.perf_counter()
     x0, lo, hi = (jnp.asarray(a, jnp.result_type(float)) for a in (x0, lo, hi))
     x0 = jnp.clip(x0, lo, hi)
-    if solver in ("lbfgsb", "projected_gradient"):
+    if solver == "lbfgsb":
+        run = _lbfgsb(residuals, args, x0, lo, hi, max_steps, tolerance)
+    elif solver == "projected_gradient":
         run = _jaxopt(residuals, args, x0, lo, hi, solver, max_steps, tolerance)
     else:
         run = _optimistix(residuals, args, x0, lo, hi, solver, max_steps, tolerance)
@@ -84,30 +89,86 @@ def _stalled(history, tolerance) -> bool:
 
 
 @functools.lru_cache(maxsize=16)
-def _jaxopt_steps(name, residuals, max_steps, tolerance):
-    """Compiled init/update/value of a jaxopt solver, kept between calls (a second fit of the
-    same study compiles nothing)."""
+def _value_and_grad(residuals):
+    """``(f, ∇f)`` compiled once per residual function (and per shape of its arguments)."""
+    return jax.jit(jax.value_and_grad(_value(residuals)))
+
+
+class _Stop(Exception):
+    pass
+
+
+def _lbfgsb(residuals, args, x0, lo, hi, max_steps, tolerance) -> SolverRun:
+    """scipy's L-BFGS-B on the compiled f and ∇f: the line search and the limited-memory
+    update run in Fortran on 2 × steps floats, so nothing but f and ∇f is ever compiled."""
+    from scipy.optimize import minimize
+
+    vg = _value_and_grad(residuals)
+    dtype = x0.dtype
+    evaluations = 0
+
+    def fun(x):
+        nonlocal evaluations
+        evaluations += 1
+        v, g = vg(jnp.asarray(x, dtype), args)
+        return float(v), np.asarray(g, np.float64)
+
+    f0 = fun(np.asarray(x0))[0]
+    run = SolverRun("lbfgsb", x0, [f0])
+    best = [np.asarray(x0, np.float64), f0]
+
+    def callback(intermediate_result):
+        fx = float(intermediate_result.fun)
+        run.history.append(fx)
+        run.iterations += 1
+        if fx < best[1]:
+            best[:] = [np.array(intermediate_result.x), fx]
+        if _stalled(run.history, tolerance):
+            run.converged = True
+            raise StopIteration
+
+    res = minimize(fun, np.asarray(x0, np.float64), jac=True, method="L-BFGS-B",
+                   bounds=list(zip(np.asarray(lo), np.asarray(hi), strict=True)),
+                   callback=callback,
+                   options=dict(maxiter=max_steps, maxfun=max(20 * max_steps, 100),
+                                gtol=tolerance, ftol=0.0, maxcor=10))
+    # scipy's own test: the projected gradient below the tolerance (ftol = 0: the relative
+    # decrease test is ours, _stalled, so that every solver stops alike)
+    run.converged = run.converged or (res.status == 0 and run.iterations < max_steps)
+    run.evaluations = evaluations
+    run.x = best[0]
+    return run
+
+
+@functools.lru_cache(maxsize=16)
+def _jaxopt_steps(name, residuals):
+    """Compiled init/update (and f for projected gradient, whose state holds no value) of a
+    jaxopt solver, kept between calls. Step limit and tolerance are checked here in Python, not
+    baked into the compiled step, so a fit with other settings, or other goal values of the same
+    kinds, compiles nothing."""
     import jaxopt
 
     f = _value(residuals)
     if name == "lbfgsb":
-        opt = jaxopt.LBFGSB(fun=f, maxiter=max_steps, tol=tolerance, jit=True)
+        opt = jaxopt.LBFGSB(fun=f, maxiter=10**9, tol=0.0, jit=True)
     else:
         opt = jaxopt.ProjectedGradient(fun=f, projection=jaxopt.projection.projection_box,
-                                       maxiter=max_steps, tol=tolerance, jit=True)
-    return (jax.jit(opt.init_state), jax.jit(opt.update), jax.jit(f))
+                                       maxiter=10**9, tol=0.0, jit=True)
+    return (jax.jit(opt.init_state), jax.jit(opt.update),
+            None if name == "lbfgsb" else jax.jit(f))
 
 
 def _jaxopt(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRun:
-    init, update, value = _jaxopt_steps(name, residuals, max_steps, tolerance)
+    init, update, value = _jaxopt_steps(name, residuals)
     bounds = (lo, hi)
     state = init(x0, bounds, args)
     x = best = x0
-    history = [float(value(x, args))]
+    # L-BFGS-B's state holds f at its point (no extra evaluation per step)
+    history = [float(state.value if value is None else value(x, args))]
     run = SolverRun(name, x, history)
     for i in range(max_steps):
         x_new, state = update(x, state, bounds, args)
-        fx = float(value(x_new, args))
+        fx = float(state.value if value is None else value(x_new, args))
         if not np.isfinite(fx):
             break
         x = x_new
@@ -115,6 +176,7 @@ def _jaxopt(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRu
         if fx < min(history[:-1]):
             best = x
         run.iterations = i + 1
+        run.evaluations = int(getattr(state, "num_fun_eval", run.iterations))
         if float(state.error) <= tolerance or _stalled(history, tolerance):
             run.converged = True
             break

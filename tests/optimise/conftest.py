@@ -1,5 +1,6 @@
 """A small facade for optimiser tests: a 6 × 4 m wall and the ground, four 30° spots on two
-networks, a 12 × 18 grid on the wall. Point-source spots and the luminous solve
+networks aimed up at the wall (tilt ≈ 124°: their beams land on it, so each aim is seen in the
+grid's light), a 12 × 18 grid on the wall. Point-source spots and the luminous solve
 (``spectral_samples = 0``), so the optimiser's light model is exact for this scene."""
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ import pytest
 
 from lumijax.photometry import spot, write_ies
 
-START_AIMS = [(40, -90), (45, -95), (38, -88), (42, -92)]
+START_AIMS = [(124, -90), (128, -95), (120, -88), (126, -92)]
 
 
 def facade_text(aims=START_AIMS, dimmers=(0.6, 0.9), grid_extra="target_lux = 30",

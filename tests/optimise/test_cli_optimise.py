@@ -18,7 +18,7 @@ def test_run_optimises_and_writes_the_optimised_config(facade_dir, capsys):
     path = facade_dir / "cli.toml"
     path.write_text(facade_text(grid_extra="target_lux = 20"), "utf-8")
     out = facade_dir / "cli-out"
-    assert main(["run", str(path), "--out", str(out), "--no-images"]) == 0
+    assert main(["run", str(path), "--out", str(out), "--no-images", "--no-report"]) == 0
     printed = capsys.readouterr().out
     assert "optimisation (lbfgsb" in printed and "dimmers: n0" in printed
     data = json.loads((out / "results.json").read_text())
@@ -45,6 +45,7 @@ def test_no_optimise_skips_the_step(facade_dir):
     path = facade_dir / "cli2.toml"
     path.write_text(facade_text(grid_extra="target_lux = 20"), "utf-8")
     out = facade_dir / "cli2-out"
-    assert main(["run", str(path), "--out", str(out), "--no-images", "--no-optimise"]) == 0
+    assert main(["run", str(path), "--out", str(out), "--no-images", "--no-report",
+                 "--no-optimise"]) == 0
     assert "optimisation" not in json.loads((out / "results.json").read_text())
     assert not (out / "optimised.toml").exists()

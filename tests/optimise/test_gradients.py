@@ -62,14 +62,19 @@ AIM_TERMS = ["target", "min_lux", "uniformity_min", "max_lux", "max_luminance_cd
              "patch_luminance"]
 
 
-def test_aim_objective_gradient(facade_results):
+@pytest.fixture(scope="module")
+def aim_model(facade_results):
+    """The aim model of the four facade spots (±10°), built once for this module."""
+    lighting = facade_results[1].lighting
+    span = np.radians(np.full(4, 10.0))
+    return build_aim_light(lighting, [0, 1, 2, 3], span, span, aims=True, levels=False)
+
+
+def test_aim_objective_gradient(facade_results, aim_model):
     """d f / d(dimmers, tilt, pan) of each term: the direct pair kernel through the aim
     rotation, and the change of inter-reflection through the adjoint radiosity solve."""
-    study, results = facade_results
-    lighting = results.lighting
-    span = np.radians(np.full(4, 10.0))
-    model = build_aim_light(lighting, [0, 1, 2, 3], span, span, aims=True, levels=False)
-    n = len(lighting.points)
+    model = aim_model
+    n = len(facade_results[1].lighting.points)
     obj = Objective.build(_goals(n), [30.0, 50.0], patch_max_luminance=0.5)
     x0 = np.concatenate([[0.7, 0.9], np.asarray(model.tilt0) + 0.03,
                          np.asarray(model.pan0) - 0.02])
@@ -95,15 +100,33 @@ def test_aim_objective_gradient(facade_results):
                               if not ok[j]])
 
 
-def test_aim_model_reproduces_the_study_at_the_start(facade_results):
+def test_aim_model_reproduces_the_study_at_the_start(facade_results, aim_model):
     """At the config's aims the model's light is the computed study's, exactly."""
     study, results = facade_results
     lighting = results.lighting
-    span = np.radians(np.full(4, 10.0))
-    model = build_aim_light(lighting, [0, 1, 2, 3], span, span, aims=True, levels=False)
+    model = aim_model
     alpha = np.array([0.6, 0.9])
     x = np.concatenate([alpha, np.asarray(model.tilt0), np.asarray(model.pan0)])
     e, b, _ = model(jnp.asarray(x))
     np.testing.assert_allclose(np.asarray(e), results["wall"].illuminance_lux, rtol=1e-9,
                                atol=1e-9)
     np.testing.assert_allclose(np.asarray(b), alpha @ lighting.radiosity, rtol=1e-9, atol=1e-9)
+
+
+def test_float32_pairs_agree_with_float64(facade_results, aim_model):
+    """A float32 study runs the pairs in float32: away from the start aims its light is the
+    (finite-difference checked) float64 model's to float32 rounding."""
+    lighting = facade_results[1].lighting
+    span = np.radians(np.full(4, 10.0))
+    m32 = build_aim_light(lighting, [0, 1, 2, 3], span, span, aims=True, levels=False,
+                          pair_dtype=np.float32)
+    assert m32.pairs[0].gain.dtype == np.float32
+    x = jnp.asarray(np.concatenate([[0.7, 0.9], np.asarray(aim_model.tilt0) + 0.05,
+                                    np.asarray(aim_model.pan0) - 0.04]))
+    e64, b64, _ = aim_model(x)
+    e32, b32, _ = m32(x)
+    assert e32.dtype == np.float64  # the objective stays float64
+    np.testing.assert_allclose(np.asarray(e32), np.asarray(e64), rtol=1e-5,
+                               atol=1e-6 * float(jnp.max(e64)))
+    np.testing.assert_allclose(np.asarray(b32), np.asarray(b64), rtol=1e-5,
+                               atol=1e-6 * float(jnp.max(b64)))

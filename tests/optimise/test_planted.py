@@ -79,7 +79,7 @@ def test_aims_and_dimmers_recovered_from_a_planted_map(facade_dir, facade_result
     path.write_text(facade_text(grid_extra='target_csv = "aim_target.csv"',
                                 optimise='variables = ["dimmers", "aims"]\n'
                                          'tilt_range_deg = [-8, 8]\npan_range_deg = [-8, 8]\n'
-                                         'tolerance = 1e-12\nmax_steps = 400'), "utf-8")
+                                         'tolerance = 1e-12\nmax_steps = 100'), "utf-8")
     study, results = facade_results
     s = lumijax.load_study(path)
     opt = lumijax.optimise(s, results)
