@@ -1,8 +1,14 @@
-"""Shared test set-up: float64 JAX, the shared photometry folder, small study builders."""
+"""Shared test set-up: float64 JAX, the shared photometry folder, small study builders, and a
+small computed study (two closed rooms, one per network) for the report and viewer tests.
+
+Light cannot pass between the two rooms (closed boxes, shadow rays), so each network lights
+exactly its own room: an independent fact the pictures must show.
+"""
 
 from __future__ import annotations
 
 import textwrap
+import warnings
 from pathlib import Path
 
 import jax
@@ -33,3 +39,80 @@ def write_study(tmp_path):
         return path
 
     return write
+
+
+TWO_ROOMS = """
+[study]
+name = "Two rooms"
+description = "Two closed rooms side by side, each on its own dimmer."
+[solver]
+target_patches = 400
+gather_rays = 64
+spectral_samples = 4
+cache = false
+[materials.wall]
+srgb = [0.7, 0.6, 0.5]
+[photometry.iso]
+kind = "isotropic"
+flux_lm = 1000
+[networks.left]
+dimmer = 1.0
+[networks.right]
+dimmer = 0.5
+[[geometry]]
+kind = "box"
+min = [0, 0, 0]
+max = [3, 3, 2.5]
+normals = "inward"
+material = "wall"
+[[geometry]]
+kind = "box"
+min = [5, 0, 0]
+max = [8, 3, 2.5]
+normals = "inward"
+material = "wall"
+[[luminaires]]
+name = "L1"
+photometry = "iso"
+position = [1.5, 1.5, 2.0]
+network = "left"
+spectrum = "A"
+[[luminaires]]
+name = "R1"
+photometry = "iso"
+position = [6.5, 1.5, 2.0]
+network = "right"
+spectrum = "D65"
+[[grids]]
+name = "floor_left"
+kind = "plane"
+origin = [0, 0, 0.01]
+u = [3, 0, 0]
+v = [0, 3, 0]
+nu = 6
+nv = 6
+target_lux = 50
+[[grids]]
+name = "floor_right"
+kind = "plane"
+origin = [5, 0, 0.01]
+u = [3, 0, 0]
+v = [0, 3, 0]
+nu = 6
+nv = 6
+target_lux = 500
+"""
+
+
+@pytest.fixture(scope="session")
+def two_rooms(tmp_path_factory):
+    """``(study, results)`` of the two-room study, computed once per session."""
+    from lumijax import compute, load_study
+
+    path = tmp_path_factory.mktemp("two_rooms") / "study.toml"
+    path.write_text(textwrap.dedent(TWO_ROOMS), encoding="utf-8")
+    study = load_study(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        results = compute(study)
+    return study, results
