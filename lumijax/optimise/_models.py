@@ -150,6 +150,33 @@ class AimLight(eqx.Module):
         return e, b, alpha
 
 
+PAIR_THRESHOLD = 1e-4
+"""Relative intensity below which a pair's light is kept at its start value (see
+:func:`build_aim_light`)."""
+
+
+def _support_cosine(distribution, threshold: float) -> float:
+    """Cosine of the widest angle from the axis at which the intensity can exceed ``threshold``
+    × its peak (the bilinear interpolant reaches the neighbours of such samples; 2° margin for
+    Type A/B cells, as :func:`lumijax.direct._direct.support_cosine`)."""
+    cd = np.asarray(distribution.candela)
+    if threshold <= 0:
+        return support_cosine(distribution)
+    nz = cd > threshold * cd.max()
+    if not nz.any():
+        return 1.0
+    grown = nz.copy()
+    grown[1:] |= nz[:-1]
+    grown[:-1] |= nz[1:]
+    grown[:, 1:] |= nz[:, :-1]
+    grown[:, :-1] |= nz[:, 1:]
+    hh, vv = np.meshgrid(np.asarray(distribution.h_deg), np.asarray(distribution.v_deg),
+                         indexing="ij")
+    dirs = np.asarray(distribution.direction(hh[grown], vv[grown]))
+    widest = np.arccos(np.clip(np.min(-dirs[:, 2]), -1.0, 1.0)) + np.radians(2.0)
+    return float(np.cos(widest)) if widest < np.pi else -1.0
+
+
 def operator_dtype(transport) -> np.dtype:
     """The precision the study's form factors are stored in (that of its solve): solving in
     another would convert every block on every product."""
@@ -160,7 +187,7 @@ def operator_dtype(transport) -> np.dtype:
 
 def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims: bool,
                     levels: bool, indirect: bool = True, dtype=np.float64,
-                    pair_dtype=None) -> AimLight:
+                    pair_dtype=None, threshold: float = PAIR_THRESHOLD) -> AimLight:
     """Precompute pairs, visibility and the start-aim direct light for luminaires ``variable``
     (indices into ``scene.luminaires``).
 
@@ -168,6 +195,14 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     the support cone is widened by their sum, which bounds how far the beam axis can turn.
     ``pair_dtype`` is the precision of the pairs (default: the study's, that of its transport
     operator, float64 without one); the inter-reflected change is solved at the operator's.
+
+    A pair enters only if the luminaire's intensity towards the receiver can exceed
+    ``threshold`` × its peak at some aim within the bounds (the cone where it does, widened by
+    the largest aim change); the other pairs keep their start light (it stays in ``base``), so
+    the model is still exact at the start and, away from it, errs by less than ``threshold`` ×
+    peak / d² per dropped pair. A Gaussian spot's table reaches 1e-8 of its peak near 77° off
+    axis: 0 (every non-zero sample) made every wall point a pair of every spot of the benchmark
+    facade (1.48 M pairs); 1e-4 keeps 188 k.
     """
     sc = lighting.scene
     pts = np.asarray(lighting.points, np.float64)
@@ -190,7 +225,7 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     by_phot: dict[str, list[tuple[np.ndarray, ...]]] = {}
     for v, lum in enumerate(lums):
         dist = sc.photometries[lum.photometry].distribution
-        half = np.arccos(np.clip(support_cosine(dist), -1.0, 1.0)) + widen[v]
+        half = np.arccos(np.clip(_support_cosine(dist, threshold), -1.0, 1.0)) + widen[v]
         d = rcv - lum.position
         r = np.linalg.norm(d, axis=1)
         facing = np.einsum("ij,ij->i", d, rcv_n) < 0

@@ -142,20 +142,15 @@ def _lbfgsb(residuals, args, x0, lo, hi, max_steps, tolerance) -> SolverRun:
 
 @functools.lru_cache(maxsize=16)
 def _jaxopt_steps(name, residuals):
-    """Compiled init/update (and f for projected gradient, whose state holds no value) of a
-    jaxopt solver, kept between calls. Step limit and tolerance are checked here in Python, not
-    baked into the compiled step, so a fit with other settings, or other goal values of the same
-    kinds, compiles nothing."""
+    """Compiled init/update/f of jaxopt's projected gradient, kept between calls. Step limit and
+    tolerance are checked here in Python, not baked into the compiled step, so a fit with other
+    settings, or other goal values of the same kinds, compiles nothing."""
     import jaxopt
 
     f = _value(residuals)
-    if name == "lbfgsb":
-        opt = jaxopt.LBFGSB(fun=f, maxiter=10**9, tol=0.0, jit=True)
-    else:
-        opt = jaxopt.ProjectedGradient(fun=f, projection=jaxopt.projection.projection_box,
-                                       maxiter=10**9, tol=0.0, jit=True)
-    return (jax.jit(opt.init_state), jax.jit(opt.update),
-            None if name == "lbfgsb" else jax.jit(f))
+    opt = jaxopt.ProjectedGradient(fun=f, projection=jaxopt.projection.projection_box,
+                                   maxiter=10**9, tol=0.0, jit=True)
+    return jax.jit(opt.init_state), jax.jit(opt.update), jax.jit(f)
 
 
 def _jaxopt(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRun:
@@ -163,12 +158,11 @@ def _jaxopt(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRu
     bounds = (lo, hi)
     state = init(x0, bounds, args)
     x = best = x0
-    # L-BFGS-B's state holds f at its point (no extra evaluation per step)
-    history = [float(state.value if value is None else value(x, args))]
+    history = [float(value(x, args))]
     run = SolverRun(name, x, history)
     for i in range(max_steps):
         x_new, state = update(x, state, bounds, args)
-        fx = float(state.value if value is None else value(x_new, args))
+        fx = float(value(x_new, args))
         if not np.isfinite(fx):
             break
         x = x_new
@@ -176,7 +170,7 @@ def _jaxopt(residuals, args, x0, lo, hi, name, max_steps, tolerance) -> SolverRu
         if fx < min(history[:-1]):
             best = x
         run.iterations = i + 1
-        run.evaluations = int(getattr(state, "num_fun_eval", run.iterations))
+        run.evaluations = run.iterations + 1
         if float(state.error) <= tolerance or _stalled(history, tolerance):
             run.converged = True
             break
