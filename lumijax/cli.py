@@ -47,13 +47,15 @@ def _progress_bar(console, description: str):
 def _summary_table(results, console) -> None:
     from rich.table import Table
 
+    from .results import CRITERIA_SLACK
+
     table = Table(title=f"{results.study}: illuminance per grid", title_justify="left")
     for col in ("grid", "points", "Eavg (lx)", "Emin (lx)", "Emax (lx)", "U0", "target (lx)"):
         table.add_column(col, justify="left" if col == "grid" else "right")
     for name, g in results.grids.items():
         s = g.stats
         target = "" if g.target_lux is None else (
-            f"{g.target_lux:g} {'✓' if s['avg'] >= g.target_lux else '✗'}")
+            f"{g.target_lux:g} {'✓' if s['avg'] >= g.target_lux * (1 - CRITERIA_SLACK) else '✗'}")
         table.add_row(name, str(len(g.points)), f"{s['avg']:.1f}", f"{s['min']:.1f}",
                       f"{s['max']:.1f}", f"{s['u0']:.2f}", target)
     console.print(table)

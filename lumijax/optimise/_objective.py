@@ -4,7 +4,10 @@
 that goals in lux, in cd/m² and in watts can be summed, and each family is divided by the square
 root of its count, so that a 10⁴-point grid does not outweigh a 10-point one:
 
-* target (per grid, weight w): ``√(w/N) · (E − T) / mean(T)``;
+* target (per grid, weight w): a constant ``target_lux`` T is a level for the grid's average
+  (the maintained average illuminance of EN 12464, Ēm), one residual ``√w · (mean(E) − T) / T``
+  — evenness is the job of ``uniformity_min``; a ``target_csv`` map T is fitted point by point,
+  ``√(w/N) · (E − T) / mean(T)``;
 * limits (weight c = ``constraint_weight``), hinge² penalties that are exactly zero when the
   limit is met and have a continuous gradient:
 
@@ -40,6 +43,7 @@ class _GridTerm(eqx.Module):
     # array leaves, so a fit with other levels of the same kinds of goal compiles nothing.
     start: int = eqx.field(static=True)
     stop: int = eqx.field(static=True)
+    average: bool = eqx.field(static=True)  # a constant target_lux: fit the mean, not each point
     target: Float[Array, " n"] | None
     target_ref: Float[Array, ""] | None
     weight: Float[Array, ""] | None
@@ -77,7 +81,8 @@ class Objective(eqx.Module):
             has_target = g.target is not None and g.weight > 0
             ref = float(np.mean(g.target)) if g.target is not None else 1.0
             grids.append(_GridTerm(
-                g.start, g.stop, jnp.asarray(g.target) if has_target else None,
+                g.start, g.stop, g.target_kind == "target_lux",
+                jnp.asarray(g.target) if has_target else None,
                 _leaf(ref if ref > 0 else 1.0, has_target), _leaf(g.weight, has_target),
                 _leaf(g.min_lux, g.min_lux is not None and g.min_lux > 0), _leaf(g.max_lux),
                 _leaf(g.uniformity_min), _leaf(g.max_luminance_cdm2),
@@ -102,7 +107,11 @@ class Objective(eqx.Module):
             eg = e[g.start:g.stop]
             n = g.stop - g.start
             if g.target is not None and "target" in self.terms:
-                out.append(jnp.sqrt(g.weight / n) * (eg - g.target) / g.target_ref)
+                if g.average:
+                    out.append(jnp.sqrt(g.weight) * (jnp.mean(eg, keepdims=True)
+                                                     - g.target_ref) / g.target_ref)
+                else:
+                    out.append(jnp.sqrt(g.weight / n) * (eg - g.target) / g.target_ref)
             if g.min_lux is not None and "min_lux" in self.terms:
                 out.append(jnp.sqrt(c / n) * _hinge(g.min_lux - eg) / g.min_lux)
             if g.uniformity_min is not None and "uniformity_min" in self.terms:

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ConfigError, LumijaxError, OutputError
-from ..results import grid_stats
+from ..results import CRITERIA_SLACK, grid_stats
 from ._models import DimmerLight, build_aim_light
 from ._objective import Objective
 from ._solvers import minimise
@@ -24,7 +24,7 @@ __all__ = ["Optimisation", "optimise", "LUMENS_PER_WATT"]
 LUMENS_PER_WATT = 100.0
 """Efficacy assumed for a network without ``power_w`` (its power ∝ its flux)."""
 
-_MET = 0.02  # slack on a limit or an average target before it counts as not met
+_MET = CRITERIA_SLACK  # slack on a limit or an average target before it counts as not met
 _MET_MAP = 0.05  # relative RMS deviation of a target map counted as met
 
 

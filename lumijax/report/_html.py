@@ -20,6 +20,7 @@ import numpy as np
 
 from .._atomic import atomic_path
 from ..errors import LumijaxError, OutputError
+from ..results import CRITERIA_SLACK
 
 __all__ = ["write_report", "report_context", "render_report", "grid_criteria"]
 
@@ -55,8 +56,8 @@ def grid_criteria(grid_cfg, stats: dict[str, float]) -> list[dict[str, Any]]:
         if wanted is None:
             continue
         got = stats[stat]
-        # 0.5 % slack: a design that reaches its target to the solver's accuracy meets it
-        met = got >= wanted * (1 - 5e-3) if op == ">=" else got <= wanted * (1 + 5e-3)
+        met = (got >= wanted * (1 - CRITERIA_SLACK) if op == ">="
+               else got <= wanted * (1 + CRITERIA_SLACK))
         out.append({"key": key, "label": label, "op": "≥" if op == ">=" else "≤",
                     "wanted": float(wanted), "achieved": float(got), "unit": unit,
                     "met": bool(met),

@@ -8,7 +8,12 @@ from typing import Any
 import numpy as np
 from jaxtyping import Float
 
-__all__ = ["GridResult", "Results", "grid_stats"]
+__all__ = ["GridResult", "Results", "grid_stats", "CRITERIA_SLACK"]
+
+#: How far (relative) a statistic may fall short of a design criterion (a target, a minimum, a
+#: maximum, a uniformity) and still meet it: the accuracy a fitted design is held to. The
+#: report, the command line and the optimiser all judge with it.
+CRITERIA_SLACK = 0.02
 
 
 def grid_stats(lux: Float[np.ndarray, " points"]) -> dict[str, float]:

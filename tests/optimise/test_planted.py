@@ -156,3 +156,21 @@ def test_target_map_must_fit_the_grid(facade_dir, facade_results):
     with pytest.raises(ConfigError, match="off by 0.5 m") as e:
         lumijax.optimise(lumijax.load_study(path), results)
     assert e.value.key == "grids[0].target_csv" and e.value.line == 2
+
+
+def test_a_target_level_is_met_by_the_grid_average(facade_dir, facade_results):
+    """``target_lux`` is the grid's average (Ēm), however peaky the light: the average is linear
+    in the dimmers (superposition) and T is within reach, so the fit must land on it exactly —
+    a pointwise fit of the level would settle lower, by mean(E)²/mean(E²)."""
+    study, results = facade_results
+    one = results["wall"].by_network_lux[1]
+    wanted = 0.4 * one.mean()
+    path = facade_dir / "level.toml"
+    path.write_text(facade_text(dimmers=(0.0, 0.9), grid_extra=f"target_lux = {wanted:.9g}"),
+                    "utf-8")
+    opt = lumijax.optimise(lumijax.load_study(path), results, tolerance=1e-12, dimmer_min=0.0,
+                           variables=["dimmers"])
+    assert opt.results["wall"].stats["avg"] == pytest.approx(wanted, rel=1e-4)
+    assert opt.results["wall"].stats["u0"] < 0.5  # peaky: a pointwise fit would settle lower
+    [t] = opt.targets
+    assert t["met"] and not opt.unmet
