@@ -400,6 +400,7 @@ def study_toml(c: Courtyard, files: dict[str, str], generator_args: str) -> str:
     out.append("")
 
     out += _grids(c)
+    out += _cameras(c)
     out += [
         "", "[solver]",
         f"target_patches = {c.target_patches}",
@@ -412,6 +413,19 @@ def study_toml(c: Courtyard, files: dict[str, str], generator_args: str) -> str:
         # the facade limit is on the wall grids (max_luminance_cdm2 with their reflectance)
         out += ["", "[optimise]", 'variables = ["dimmers"]']
     return "\n".join(out) + "\n"
+
+
+def _cameras(c: Courtyard) -> list[str]:
+    """A visitor's view across the court to the south-east corner (S and E facades), drawn
+    realistic and in false-colour luminance, for the report and the viewer."""
+    L, top = c.side, c.levels[-1][1]
+    eye = f"[{0.12 * L:.2f}, {0.88 * L:.2f}, 1.7]"
+    corner = f"[{0.85 * L:.2f}, {0.15 * L:.2f}, {0.4 * top:.2f}]"
+    out = ["", "# --- views for the report: a visitor standing in the court"]
+    for name, kind in (("court-view", "realistic"), ("court-luminance", "falsecolour")):
+        out += [f"[cameras.{name}]", f"position = {eye}", f"target = {corner}",
+                "fov_deg = 62", f'kind = "{kind}"']
+    return out
 
 
 def _grids(c: Courtyard) -> list[str]:
@@ -450,7 +464,9 @@ def _grids(c: Courtyard) -> list[str]:
     n = max(2, round(L / c.ground_spacing))
     out += ["[[grids]]", 'name = "court"', 'kind = "plane"', "origin = [0, 0, 0.01]",
             f"u = [{L:g}, 0, 0]", f"v = [0, {L:g}, 0]", f"nu = {n}", f"nv = {n}",
-            "target_lux = 5"]
+            # a floor for safe walking (EN 12464-2 style Emin), not a level to fit: the
+            # washers' spill lights the court, and fitting it down would dim the facades
+            "min_lux = 1"]
     # eye points on each entry path, looking along the path into the court: vertical
     # illuminance at the eye is the glare proxy (no flood or spot aimed at the visitors)
     eyes, normals = [], []
