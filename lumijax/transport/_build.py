@@ -26,7 +26,7 @@ import numpy as np
 from ..mesh._partition import Partition
 from ..mesh._patches import Patches, _template
 from ._kernels import far_g, form_factor_point_triangle, triangle_spread
-from ._lowrank import aca_block, clear_pairs, separated, unobstructed_pairs
+from ._lowrank import aca_block, clear_pairs, separated, truncate_block, unobstructed_pairs
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
 
 __all__ = ["FormFactorSettings", "build_operator"]
@@ -63,6 +63,10 @@ class FormFactorSettings:
     shadow rays sampled per candidate pair; any blocked one keeps the pair dense."""
     lowrank_max_fraction: float = 0.5
     """Keep a pair dense unless its factors take at most this fraction of the dense block."""
+    lowrank_shadowed: bool = True
+    """Also compress well-separated pairs that may be shadowed: their dense block is computed
+    as for any dense pair (one centroid ray per entry), then truncated by SVD with its exact
+    error ≤ ``lowrank_tol`` (memory saved, rays not; see ``docs/radiosity.md``)."""
 
 
 _LADDER = np.array([8 * round(32 * 2 ** (k / 2) / 8) for k in range(24)])
@@ -93,7 +97,8 @@ def _compress(patches, part, s: FormFactorSettings, caster, triangles, diam, cou
     t0 = time.perf_counter()
     cand = np.flatnonzero(separated(patches, part, s.lowrank_eta, s.near_ratio, diam))
     out, ranks = {}, []
-    counters.update(lowrank_candidates=len(cand), lowrank_mixed=0, lowrank_rank_cap=0)
+    counters.update(lowrank_candidates=len(cand), lowrank_mixed=0, lowrank_rank_cap=0,
+                    lowrank_shadowed=0)
     if len(cand):
         if caster is None:
             ok = np.ones(len(cand), bool)
@@ -105,6 +110,19 @@ def _compress(patches, part, s: FormFactorSettings, caster, triangles, diam, cou
             counters["ray_time"] += time.perf_counter() - t1
             counters["rays"] += rays
         counters["lowrank_mixed"] = int((~ok).sum())
+        if s.lowrank_shadowed and caster is not None:
+            for k in cand[~ok]:
+                a, b = part.pairs[k]
+                ia, ib = part.block(a), part.block(b)
+                m, n = len(ia), len(ib)
+                g = _pair_block(patches, ia, ib, False, s, caster, counters, diam, spread)
+                res = truncate_block(g, s.lowrank_tol, int(s.lowrank_max_fraction * m * n / (m + n)))
+                if res is None:
+                    counters["lowrank_rank_cap"] += 1
+                    continue
+                counters["lowrank_shadowed"] += 1
+                out[int(k)] = res
+                ranks.append(res[0].shape[1])
         for k in cand[ok]:
             a, b = part.pairs[k]
             ia, ib = part.block(a), part.block(b)
@@ -356,6 +374,7 @@ def build_operator(
         lowrank_rank_max=int(max(counters["lowrank_ranks"])) if counters.get("lowrank_ranks") else 0,
         lowrank_entries=lr_entries,
         lowrank_time_s=counters.get("lowrank_time", 0.0),
+        lowrank_shadowed=counters.get("lowrank_shadowed", 0),
         build_time_s=time.perf_counter() - t_start,
         settings=dataclasses.asdict(s),
     )

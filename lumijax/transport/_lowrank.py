@@ -32,7 +32,8 @@ import numpy as np
 
 from ._kernels import far_g
 
-__all__ = ["block_spheres", "separated", "clear_pairs", "unobstructed_pairs", "aca_block"]
+__all__ = ["block_spheres", "separated", "clear_pairs", "unobstructed_pairs", "aca_block",
+           "truncate_block"]
 
 
 def block_spheres(patches, part):
@@ -230,3 +231,21 @@ def aca_block(ca, na, aa, cb, nb, ab, tol: float, max_rank: int, checks: int = 2
     if err > 3.0 * tol * ref:
         return None
     return U, V, dict(rank=U.shape[1], aca_rank=k, check_error=float(err / ref) if ref else 0.0)
+
+
+def truncate_block(g, tol: float, max_rank: int):
+    """``(U, V)`` with ``‖G − U Vᵀ‖_F ≤ tol ‖G‖_F`` exactly (truncated SVD), or ``None``.
+
+    For a possibly shadowed far pair whose dense block (every entry with its shadow ray) is at
+    hand: the error is not estimated but exact, so nothing about the shadows is sampled.
+    ``None`` when the rank needed exceeds ``max_rank``.
+    """
+    w, sv, zt = np.linalg.svd(g, full_matrices=False)
+    tail = np.sqrt(np.cumsum((sv**2)[::-1]))[::-1]  # tail[r] = ‖s[r:]‖ = error at rank r
+    if not len(sv) or tail[0] == 0:
+        return np.zeros((g.shape[0], 0)), np.zeros((g.shape[1], 0))
+    below = np.flatnonzero(tail <= tol * tail[0])
+    r = int(below[0]) if len(below) else len(sv)
+    if r > max_rank:
+        return None
+    return w[:, :r] * sv[:r], zt[:r].T
