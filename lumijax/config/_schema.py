@@ -427,7 +427,7 @@ class OptimiseConfig(_Model):
     variables: Annotated[list[Literal["dimmers", "aims", "levels"]], Field(min_length=1)] = [
         "dimmers"]
     solver: Literal["auto", "levenberg_marquardt", "gauss_newton", "dogleg", "bfgs", "lbfgsb",
-                    "projected_gradient"] = "auto"
+                    "projected_gradient", "jaxopt_lbfgsb"] = "auto"
     max_steps: Annotated[int, Field(ge=1, le=100_000)] = 200
     tolerance: Annotated[float, Field(gt=0, lt=1)] = 1e-8
     dimmer_min: Annotated[float, Field(ge=0, le=1)] = 0.0

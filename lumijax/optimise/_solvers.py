@@ -4,6 +4,7 @@ Every solver honours the box ``lo ≤ x ≤ hi`` exactly:
 
 * ``"lbfgsb"`` (the default: scipy's L-BFGS-B, the reference Fortran code, driven by one
   compiled ``value_and_grad`` — one compilation, about one evaluation per step) and jaxopt's
+  ``"jaxopt_lbfgsb"`` (the same method in JAX, every step on the device) and
   ``"projected_gradient"`` take the box natively;
 * optimistix ``"levenberg_marquardt"``, ``"gauss_newton"``, ``"dogleg"`` (least squares on r)
   and ``"bfgs"`` (on f) solve for an unbounded z with ``x = lo + (hi − lo)·(1 + sin z)/2``, a
@@ -30,8 +31,8 @@ import numpy as np
 
 __all__ = ["SOLVERS", "SolverRun", "minimise"]
 
-SOLVERS = ("lbfgsb", "projected_gradient", "levenberg_marquardt", "gauss_newton", "dogleg",
-           "bfgs")
+SOLVERS = ("lbfgsb", "jaxopt_lbfgsb", "projected_gradient", "levenberg_marquardt",
+           "gauss_newton", "dogleg", "bfgs")
 _STALL = 5  # steps without relative decrease beyond the tolerance before giving up
 
 
@@ -72,7 +73,7 @@ def minimise(residuals, args, x0, lo, hi, *, solver: str = "lbfgsb", max_steps: 
     x0 = jnp.clip(x0, lo, hi)
     if solver == "lbfgsb":
         run = _lbfgsb(residuals, args, x0, lo, hi, max_steps, tolerance)
-    elif solver == "projected_gradient":
+    elif solver in ("jaxopt_lbfgsb", "projected_gradient"):
         run = _jaxopt(residuals, args, x0, lo, hi, solver, max_steps, tolerance)
     else:
         run = _optimistix(residuals, args, x0, lo, hi, solver, max_steps, tolerance)
@@ -142,14 +143,17 @@ def _lbfgsb(residuals, args, x0, lo, hi, max_steps, tolerance) -> SolverRun:
 
 @functools.lru_cache(maxsize=16)
 def _jaxopt_steps(name, residuals):
-    """Compiled init/update/f of jaxopt's projected gradient, kept between calls. Step limit and
+    """Compiled init/update/f of a jaxopt box solver, kept between calls. Step limit and
     tolerance are checked here in Python, not baked into the compiled step, so a fit with other
     settings, or other goal values of the same kinds, compiles nothing."""
     import jaxopt
 
     f = _value(residuals)
-    opt = jaxopt.ProjectedGradient(fun=f, projection=jaxopt.projection.projection_box,
-                                   maxiter=10**9, tol=0.0, jit=True)
+    if name == "jaxopt_lbfgsb":
+        opt = jaxopt.LBFGSB(fun=f, maxiter=10**9, tol=0.0, jit=True)
+    else:
+        opt = jaxopt.ProjectedGradient(fun=f, projection=jaxopt.projection.projection_box,
+                                       maxiter=10**9, tol=0.0, jit=True)
     return jax.jit(opt.init_state), jax.jit(opt.update), jax.jit(f)
 
 
