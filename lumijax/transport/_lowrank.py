@@ -13,7 +13,8 @@ triangle penetrates that hull (separating-axis test on the hull's faces and the 
 plane; touching, as the blocks' own and coplanar neighbouring triangles do, does not count),
 every shadow ray of the pair is clear and every entry's visibility is 1, exactly as the dense
 path would compute it. Any penetrating triangle sends the pair to the dense path with its
-per-entry rays. When only a ray caster is available (no triangles), ``samples`` random
+per-entry rays; that dense block may then be truncated by SVD with an exact error
+(:func:`truncate_block`: courtyard bays shadow themselves, so most far pairs land here). When only a ray caster is available (no triangles), ``samples`` random
 centroid-to-centroid rays between facing patches must all be clear instead; a partial occluder
 covering a fraction f of the pair is then missed with probability (1 − f)^samples (measured:
 a 0.5 % shadow slipped through and cost 0.8 % of the pair's norm), which is why the geometric
