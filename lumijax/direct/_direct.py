@@ -78,12 +78,13 @@ def _pair_block(distribution, positions, rotations, scales, points, normals, sou
                             source, receiver)
 
 
-def support_cosine(distribution) -> float:
-    """Cosine of the widest angle from the photometric axis at which ``distribution`` can be
-    non-zero: the bilinear interpolant is non-zero up to the neighbours of non-zero samples, and
-    a 2° margin covers Type A/B cells whose interior leans further out than their corners."""
+def support_cosine(distribution, threshold: float = 0.0) -> float:
+    """Cosine of the widest angle from the photometric axis at which ``distribution`` can exceed
+    ``threshold`` × its peak (default: be non-zero at all): the bilinear interpolant reaches the
+    neighbours of such samples, and a 2° margin covers Type A/B cells whose interior leans
+    further out than their corners."""
     cd = np.asarray(distribution.candela)
-    nz = cd > 0
+    nz = cd > threshold * cd.max()
     if not nz.any():
         return 1.0
     grown = nz.copy()

@@ -155,28 +155,6 @@ PAIR_THRESHOLD = 1e-4
 :func:`build_aim_light`)."""
 
 
-def _support_cosine(distribution, threshold: float) -> float:
-    """Cosine of the widest angle from the axis at which the intensity can exceed ``threshold``
-    × its peak (the bilinear interpolant reaches the neighbours of such samples; 2° margin for
-    Type A/B cells, as :func:`lumijax.direct._direct.support_cosine`)."""
-    cd = np.asarray(distribution.candela)
-    if threshold <= 0:
-        return support_cosine(distribution)
-    nz = cd > threshold * cd.max()
-    if not nz.any():
-        return 1.0
-    grown = nz.copy()
-    grown[1:] |= nz[:-1]
-    grown[:-1] |= nz[1:]
-    grown[:, 1:] |= nz[:, :-1]
-    grown[:, :-1] |= nz[:, 1:]
-    hh, vv = np.meshgrid(np.asarray(distribution.h_deg), np.asarray(distribution.v_deg),
-                         indexing="ij")
-    dirs = np.asarray(distribution.direction(hh[grown], vv[grown]))
-    widest = np.arccos(np.clip(np.min(-dirs[:, 2]), -1.0, 1.0)) + np.radians(2.0)
-    return float(np.cos(widest)) if widest < np.pi else -1.0
-
-
 def operator_dtype(transport) -> np.dtype:
     """The precision the study's form factors are stored in (that of its solve): solving in
     another would convert every block on every product."""
@@ -225,7 +203,7 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     by_phot: dict[str, list[tuple[np.ndarray, ...]]] = {}
     for v, lum in enumerate(lums):
         dist = sc.photometries[lum.photometry].distribution
-        half = np.arccos(np.clip(_support_cosine(dist, threshold), -1.0, 1.0)) + widen[v]
+        half = np.arccos(np.clip(support_cosine(dist, threshold), -1.0, 1.0)) + widen[v]
         d = rcv - lum.position
         r = np.linalg.norm(d, axis=1)
         facing = np.einsum("ij,ij->i", d, rcv_n) < 0
