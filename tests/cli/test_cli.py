@@ -12,49 +12,9 @@ import pytest
 
 from lumijax.cli import main
 
-STUDY = """
-[study]
-name = "cli room"
-[solver]
-indirect = false  # network b is checked against a direct-only closed form below
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 2000
-[networks.a]
-dimmer = 0.5
-[networks.b]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.5]
-network = "a"
-[[luminaires]]
-name = "B1"
-photometry = "iso"
-position = [3, 1.5, 2.5]
-network = "b"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-nu = 8
-nv = 6
-target_lux = 100
-"""
 
-
-def test_run_writes_the_documented_contract(write_study, tmp_path, capsys):
-    cfg = write_study(STUDY)
+def test_run_writes_the_documented_contract(box_room, write_study, tmp_path, capsys):
+    cfg = write_study(box_room)
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
     printed = capsys.readouterr().out
@@ -84,8 +44,8 @@ def test_run_writes_the_documented_contract(write_study, tmp_path, capsys):
     assert not [p for p in out.rglob("*") if p.name.startswith(".")]  # no staging leftovers
 
 
-def test_check_json_summary(write_study, capsys):
-    assert main(["check", str(write_study(STUDY)), "--json"]) == 0
+def test_check_json_summary(box_room, write_study, capsys):
+    assert main(["check", str(write_study(box_room)), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary == {
         "triangles": 12, "luminaires": 2, "networks": 2, "grid_points": 48,
@@ -94,8 +54,8 @@ def test_check_json_summary(write_study, capsys):
     }
 
 
-def test_bad_config_is_one_line_without_traceback(write_study, tmp_path, capsys):
-    cfg = write_study(STUDY.replace("dimmer = 0.5", "dimmer = 2"))
+def test_bad_config_is_one_line_without_traceback(box_room, write_study, tmp_path, capsys):
+    cfg = write_study(box_room.replace("dimmer = 0.5", "dimmer = 2"))
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 1
     err = capsys.readouterr().err
@@ -104,9 +64,9 @@ def test_bad_config_is_one_line_without_traceback(write_study, tmp_path, capsys)
     assert not out.exists() or not any(out.iterdir())
 
 
-def test_failure_while_writing_leaves_previous_results_untouched(write_study, tmp_path,
+def test_failure_while_writing_leaves_previous_results_untouched(box_room, write_study, tmp_path,
                                                                   monkeypatch):
-    cfg = write_study(STUDY)
+    cfg = write_study(box_room)
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out), "--no-images"]) == 0
     before = (out / "results.json").read_bytes()
@@ -117,14 +77,14 @@ def test_failure_while_writing_leaves_previous_results_untouched(write_study, tm
         raise OSError("disk full")
 
     monkeypatch.setattr(lumijax.report, "falsecolour_map", broken)
-    cfg2 = write_study(STUDY.replace("dimmer = 0.5", "dimmer = 0.1"), "other.toml")
+    cfg2 = write_study(box_room.replace("dimmer = 0.5", "dimmer = 0.1"), "other.toml")
     assert main(["run", str(cfg2), "--out", str(out)]) == 1
     assert (out / "results.json").read_bytes() == before
     assert not [p for p in out.rglob("*") if p.name.startswith(".")]
 
 
-def test_installed_entry_point_runs_as_a_process(write_study, tmp_path):
-    cfg = write_study(STUDY.replace("flux_lm = 2000", "flux_lm = -5"))
+def test_installed_entry_point_runs_as_a_process(box_room, write_study, tmp_path):
+    cfg = write_study(box_room.replace("flux_lm = 2000", "flux_lm = -5"))
     proc = subprocess.run([sys.executable, "-m", "lumijax.cli", "check", str(cfg)],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1
@@ -147,8 +107,8 @@ def test_demo_runs_the_bundled_study(tmp_path, capsys):
     assert "S-wall" in capsys.readouterr().out
 
 
-def test_tiny_point_grid_has_numbers_but_no_map(write_study, tmp_path):
-    cfg = write_study(STUDY + '[[grids]]\nname = "spot"\nkind = "points"\npoints = [[2, 1.5, 0.8]]\n')
+def test_tiny_point_grid_has_numbers_but_no_map(box_room, write_study, tmp_path):
+    cfg = write_study(box_room + '[[grids]]\nname = "spot"\nkind = "points"\npoints = [[2, 1.5, 0.8]]\n')
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
     assert (out / "grids" / "spot.csv").exists()

@@ -10,38 +10,7 @@ from lumijax.cli import main
 from lumijax.config import parse_config
 from lumijax.errors import ConfigError
 
-ROOM = """
-[study]
-name = "cli report room"
-[solver]
-indirect = false
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 2000
-[networks.a]
-dimmer = 0.5
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [2, 1.5, 2.5]
-network = "a"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-nu = 4
-nv = 3
-target_lux = 20
+CAMERAS = """
 [cameras.inside]
 position = [3.5, 0.5, 2.0]
 target = [1, 2.5, 0.5]
@@ -59,12 +28,12 @@ size = [320, 200]
 """
 
 
-def test_run_writes_the_report_unless_told_not_to(write_study, tmp_path, capsys):
-    cfg = write_study(ROOM)
+def test_run_writes_the_report_unless_told_not_to(box_room, write_study, tmp_path, capsys):
+    cfg = write_study(box_room + CAMERAS)
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
     page = (out / "report.html").read_text(encoding="utf-8")
-    assert "cli report room" in page and "floor" in page
+    assert "cli room" in page and "floor" in page
     assert "“inside”" in page and "“plan”" in page  # both configured cameras
     assert "report:" in capsys.readouterr().out
     out2 = tmp_path / "out2"
@@ -72,8 +41,8 @@ def test_run_writes_the_report_unless_told_not_to(write_study, tmp_path, capsys)
     assert (out2 / "results.json").exists() and not (out2 / "report.html").exists()
 
 
-def test_report_subcommand(write_study, tmp_path):
-    cfg = write_study(ROOM)
+def test_report_subcommand(box_room, write_study, tmp_path):
+    cfg = write_study(box_room + CAMERAS)
     out = tmp_path / "rep"
     assert main(["report", str(cfg), "--out", str(out), "--no-pictures"]) == 0
     page = (out / "report.html").read_text(encoding="utf-8")
@@ -81,16 +50,16 @@ def test_report_subcommand(write_study, tmp_path):
     assert [p.name for p in out.iterdir()] == ["report.html"]  # atomic: no leftovers
 
 
-def test_view_web_names_the_extra_when_trame_is_missing(write_study, monkeypatch, capsys):
-    cfg = write_study(ROOM)
+def test_view_web_names_the_extra_when_trame_is_missing(box_room, write_study, monkeypatch, capsys):
+    cfg = write_study(box_room + CAMERAS)
     monkeypatch.setitem(sys.modules, "trame", None)  # import trame -> ImportError
     assert main(["view", str(cfg), "--web"]) == 1
     err = capsys.readouterr().err
     assert "lumijax[view]" in err and "trame" in err
 
 
-def test_view_without_a_display_points_to_web(write_study, monkeypatch, capsys):
-    cfg = write_study(ROOM)
+def test_view_without_a_display_points_to_web(box_room, write_study, monkeypatch, capsys):
+    cfg = write_study(box_room + CAMERAS)
     monkeypatch.setattr(sys, "platform", "linux")
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
@@ -98,8 +67,8 @@ def test_view_without_a_display_points_to_web(write_study, monkeypatch, capsys):
     assert "lumijax view --web" in capsys.readouterr().err
 
 
-def test_view_unknown_camera(write_study, capsys):
-    cfg = write_study(ROOM)
+def test_view_unknown_camera(box_room, write_study, capsys):
+    cfg = write_study(box_room + CAMERAS)
     pytest.importorskip("pyvista")
     assert main(["view", str(cfg), "--camera", "nope"]) == 1
     assert "cameras: inside, plan" in capsys.readouterr().err

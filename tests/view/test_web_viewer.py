@@ -24,45 +24,6 @@ CHROMIUM = os.environ.get("LUMIJAX_CHROMIUM") or shutil.which("chromium") or shu
     "chromium-browser")
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium binary")
 
-ROOM = """
-[study]
-name = "web room"
-[solver]
-indirect = false
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 2000
-[networks.a]
-[networks.b]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.5]
-network = "a"
-[[luminaires]]
-name = "B1"
-photometry = "iso"
-position = [3, 1.5, 2.5]
-network = "b"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-nu = 4
-nv = 3
-"""
-
-
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -76,8 +37,8 @@ def _canvas(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), float)
 
 
-def test_slider_changes_the_picture(write_study):
-    cfg = write_study(ROOM)
+def test_slider_changes_the_picture(box_room, write_study):
+    cfg = write_study(box_room)
     port = _free_port()
     proc = subprocess.Popen(
         [sys.executable, "-m", "lumijax.cli", "view", str(cfg), "--web", "--port", str(port)],
