@@ -144,7 +144,8 @@ def solve_lighting(
         part = partition(patches, max_block=settings.max_block, occluders=caster)
         timing["partition"] = time.perf_counter() - t
         t = time.perf_counter()
-        transport = build_operator(patches, part, caster, dtype=dtype)
+        transport = build_operator(patches, part, caster, dtype=dtype,
+                                   occluder_triangles=tri.vertices)
     timing["operator"] = time.perf_counter() - t
     stats["operator_bytes"] = int(transport.nbytes)
 

@@ -25,8 +25,9 @@ import numpy as np
 
 from ..mesh._partition import Partition
 from ..mesh._patches import Patches, _template
+from ._hierarchy import cluster_tree, walk_block_tree
 from ._kernels import far_g, form_factor_point_triangle, triangle_spread
-from ._lowrank import aca_block, clear_pairs, separated, truncate_block, unobstructed_pairs
+from ._lowrank import Obstacles, aca_block, block_spheres, truncate_block, well_separated
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
 
 __all__ = ["FormFactorSettings", "build_operator"]
@@ -53,20 +54,22 @@ class FormFactorSettings:
     max_bytes_per_step: int = 1 << 26
     """Block data per step of a product (chunking of the scan; memory, not accuracy)."""
     lowrank: bool = True
-    """Compress well-separated, unoccluded block pairs to ``U Vᵀ`` (see ``_lowrank.py``)."""
+    """Compress well-separated cluster pairs to ``U Vᵀ`` (see ``_lowrank.py``)."""
+    hierarchical: bool = True
+    """Offer whole clusters of blocks for compression (an H-matrix, ``_hierarchy.py``), not only
+    single block pairs: what makes the far field's memory near-linear in patches."""
     lowrank_eta: float = 1.5
-    """Well separated: gap between the blocks' bounding spheres > eta × the larger radius."""
+    """Well separated: gap between the bounding spheres > eta × the larger radius."""
     lowrank_tol: float = 1e-3
     """Relative Frobenius error of each compressed block."""
-    lowrank_samples: int = 256
-    """Only when the occluders are a bare ``RayCaster`` (no triangles for the exact hull test):
-    shadow rays sampled per candidate pair; any blocked one keeps the pair dense."""
     lowrank_max_fraction: float = 0.5
     """Keep a pair dense unless its factors take at most this fraction of the dense block."""
+    lowrank_max_rank: int = 128
+    """Largest rank tried for one pair; a cluster pair that needs more is split."""
     lowrank_shadowed: bool = True
-    """Also compress well-separated pairs that may be shadowed: their dense block is computed
-    as for any dense pair (one centroid ray per entry), then truncated by SVD with its exact
-    error ≤ ``lowrank_tol`` (memory saved, rays not; see ``docs/radiosity.md``)."""
+    """Also compress well-separated pairs that may be shadowed: ACA with a shadow ray for every
+    entry it visits, accepted on its exact error over every entry; a leaf pair that fails is
+    computed dense and truncated by SVD with its exact error (see ``docs/radiosity.md``)."""
 
 
 _LADDER = np.array([8 * round(32 * 2 ** (k / 2) / 8) for k in range(24)])
@@ -92,56 +95,68 @@ def _chunking(n: int, per_pair: int, max_bytes: int) -> tuple[int, int]:
     return chunk, steps * chunk
 
 
-def _compress(patches, part, s: FormFactorSettings, caster, triangles, diam, counters, spread):
-    """{pair index: (U, V)} for the far pairs that compress; the rest stay dense."""
+def _far_field(patches, part, s: FormFactorSettings, caster, triangles, diam, counters, spread):
+    """Walk the block tree: ``(far, near, dense)``.
+
+    ``far``: ``(receivers, sources, U, V)`` low-rank leaves; ``near``: block pairs ``(a, b)``,
+    ``a ≤ b``, to store dense; ``dense``: those of them whose block was already computed (a
+    shadowed leaf pair whose SVD rank was over the cap), by pair.
+    """
     t0 = time.perf_counter()
-    cand = np.flatnonzero(separated(patches, part, s.lowrank_eta, s.near_ratio, diam))
-    out, ranks = {}, []
-    counters.update(lowrank_candidates=len(cand), lowrank_mixed=0, lowrank_rank_cap=0,
-                    lowrank_shadowed=0)
-    if len(cand):
-        if caster is None:
-            ok = np.ones(len(cand), bool)
-        elif triangles is not None:
-            ok = unobstructed_pairs(part, cand, triangles)
-        else:
-            t1 = time.perf_counter()
-            ok, rays = clear_pairs(patches, part, cand, caster, s.lowrank_samples, 8)
-            counters["ray_time"] += time.perf_counter() - t1
-            counters["rays"] += rays
-        counters["lowrank_mixed"] = int((~ok).sum())
-        if s.lowrank_shadowed and caster is not None:
-            for k in cand[~ok]:
-                a, b = part.pairs[k]
-                ia, ib = part.block(a), part.block(b)
-                m, n = len(ia), len(ib)
-                g = _pair_block(patches, ia, ib, False, s, caster, counters, diam, spread)
-                res = truncate_block(g, s.lowrank_tol, int(s.lowrank_max_fraction * m * n / (m + n)))
-                if res is None:
-                    counters["lowrank_rank_cap"] += 1
-                    continue
+    visible = np.zeros((part.n_blocks,) * 2, bool)
+    visible[part.pairs[:, 0], part.pairs[:, 1]] = True
+    visible |= visible.T
+    for key in ("lowrank_candidates", "lowrank_mixed", "lowrank_rank_cap", "lowrank_shadowed"):
+        counters[key] = 0
+    dense: dict[tuple[int, int], np.ndarray] = {}
+    if not s.lowrank or part.n_blocks == 0:
+        return [], [tuple(map(int, p)) for p in part.pairs], dense
+    obstacles = Obstacles(triangles) if triangles is not None else None
+    centre, radius = block_spheres(patches, part)
+    dmax = np.maximum.reduceat(diam[part.members], part.offsets[:-1])
+    root = cluster_tree(part, centre, radius, dmax)
+
+    def admissible(a, b):
+        return (s.hierarchical or (a.leaf and b.leaf)) and well_separated(
+            a, b, s.lowrank_eta, s.near_ratio)
+
+    def compress(a, b):
+        counters["lowrank_candidates"] += 1
+        ia, ib = a.patches, b.patches
+        m, n = len(ia), len(ib)
+        cap = min(s.lowrank_max_rank, int(s.lowrank_max_fraction * m * n / (m + n)))
+        clear = caster is None or (obstacles is not None and obstacles.clear(a.lo, a.hi, b.lo, b.hi))
+        if not clear:
+            counters["lowrank_mixed"] += 1
+            if not s.lowrank_shadowed:
+                return None
+        res = aca_block(
+            patches.centroid[ia], patches.normal[ia], patches.area[ia],
+            patches.centroid[ib], patches.normal[ib], patches.area[ib],
+            s.lowrank_tol, cap, seed=m * 7919 + n, sa=spread[ia], sb=spread[ib],
+            caster=None if clear else caster, counters=counters,
+        )
+        if res is not None:
+            return res[:2]
+        if not clear and a.leaf and b.leaf:
+            g = _pair_block(patches, ia, ib, False, s, caster, counters, diam, spread)
+            res = truncate_block(g, s.lowrank_tol, cap)
+            if res is not None:
                 counters["lowrank_shadowed"] += 1
-                out[int(k)] = res
-                ranks.append(res[0].shape[1])
-        for k in cand[ok]:
-            a, b = part.pairs[k]
-            ia, ib = part.block(a), part.block(b)
-            m, n = len(ia), len(ib)
-            cap = int(s.lowrank_max_fraction * m * n / (m + n))
-            res = aca_block(
-                patches.centroid[ia], patches.normal[ia], patches.area[ia],
-                patches.centroid[ib], patches.normal[ib], patches.area[ib],
-                s.lowrank_tol, cap, seed=int(k), sa=spread[ia], sb=spread[ib],
-            )
-            if res is None:
-                counters["lowrank_rank_cap"] += 1
-                continue
-            out[int(k)] = res[:2]
-            ranks.append(res[2]["rank"])
-    counters["lowrank_pairs"] = len(out)
-    counters["lowrank_ranks"] = ranks
+                return res
+            ka, kb = int(a.blocks[0]), int(b.blocks[0])
+            dense[(ka, kb) if ka <= kb else (kb, ka)] = g if ka <= kb else g.T
+        counters["lowrank_rank_cap"] += 1
+        return None
+
+    far, near = walk_block_tree(root, visible, admissible, compress)
+    counters["lowrank_pairs"] = len(far)
+    counters["lowrank_cluster_pairs"] = sum(not (a.leaf and b.leaf) for a, b, _ in far)
+    counters["lowrank_block_pairs"] = sum(int(visible[np.ix_(a.blocks, b.blocks)].sum())
+                                          for a, b, _ in far)
+    counters["lowrank_ranks"] = [uv[0].shape[1] for _, _, uv in far]
     counters["lowrank_time"] = time.perf_counter() - t0
-    return out
+    return [(a.patches, b.patches, *uv) for a, b, uv in far], sorted(near), dense
 
 
 _BATCH = 1 << 15  # receiver points per kernel call: one fixed shape, one compilation
@@ -300,21 +315,20 @@ def build_operator(
     spread = triangle_spread(patches.vertices)
     sizes = part.sizes
     npatch = patches.n
-    lowrank = _compress(patches, part, s, caster, occluder_triangles, diam, counters,
-                        spread) if s.lowrank else {}
-    # Bucket every visible pair by its padded shape, and preallocate (no second copy).
+    far, near, computed = _far_field(patches, part, s, caster, occluder_triangles, diam,
+                                     counters, spread)
+    # Bucket every pair by its padded shape, and preallocate (no second copy).
     keys, lr_keys = {}, {}
-    for k, (a, b) in enumerate(part.pairs):
-        if k in lowrank:
-            r = lowrank[k][0].shape[1]
-            if r:  # r = 0: the pair exchanges nothing (no facing patches)
-                lr_keys.setdefault((_pad(sizes[a]), _pad(sizes[b]), _pad_rank(r)), []).append(k)
-            continue
-        key = (_pad(sizes[a]), _pad(sizes[b]), bool(a == b))
-        keys.setdefault(key, []).append(k)
+    for k, (ia, ib, uu, _) in enumerate(far):
+        r = uu.shape[1]
+        if r:  # r = 0: the pair exchanges nothing (no facing patches)
+            lr_keys.setdefault((_pad(len(ia)), _pad(len(ib)), _pad_rank(r)), []).append(k)
+    for a, b in near:
+        keys.setdefault((_pad(sizes[a]), _pad(sizes[b]), bool(a == b)), []).append((a, b))
     buckets = []
     nnz = 0
     lr_entries = 0
+    block_of = part.block_of
     for (sa, sb, r), ks in sorted(lr_keys.items()):
         chunk, total = _chunking(len(ks), (sa + sb) * r * np.dtype(dtype).itemsize,
                                  s.max_bytes_per_step)
@@ -325,13 +339,14 @@ def build_operator(
         rblk = np.full(total, -1, np.int32)
         sblk = np.full(total, -1, np.int32)
         for slot, k in enumerate(ks):
-            a, b = part.pairs[k]
-            ia, ib = part.block(a), part.block(b)
-            uu, vv = lowrank[k]
+            ia, ib, uu, vv = far[k]
             u[slot, : len(ia), : uu.shape[1]] = uu
             v[slot, : len(ib), : vv.shape[1]] = vv
             recv[slot, : len(ia)], src[slot, : len(ib)] = ia, ib
-            rblk[slot], sblk[slot] = a, b
+            # a cluster spanning several blocks has no single block: -1 (see LowRankBucket)
+            one_a, one_b = np.unique(block_of[ia]), np.unique(block_of[ib])
+            rblk[slot] = one_a[0] if len(one_a) == 1 else -1
+            sblk[slot] = one_b[0] if len(one_b) == 1 else -1
             lr_entries += 2 * len(ia) * len(ib)
         buckets.append(LowRankBucket(*(jnp.asarray(x) for x in (u, v, recv, src, rblk, sblk)),
                                      chunk))
@@ -344,11 +359,12 @@ def build_operator(
         src = np.full((total, sb), npatch, np.int32)
         rblk = np.full(total, -1, np.int32)
         sblk = np.full(total, -1, np.int32)
-        for slot, k in enumerate(ks):
-            a, b = part.pairs[k]
+        for slot, (a, b) in enumerate(ks):
             rblk[slot], sblk[slot] = a, b
             ia, ib = part.block(a), part.block(b)
-            g = _pair_block(patches, ia, ib, diagonal, s, caster, counters, diam, spread)
+            g = computed.pop((a, b), None)
+            if g is None:
+                g = _pair_block(patches, ia, ib, diagonal, s, caster, counters, diam, spread)
             nnz += int(np.count_nonzero(g)) * (1 if diagonal else 2)
             blocks[slot, : len(ia), : len(ib)] = g
             recv[slot, : len(ia)] = ia
@@ -368,6 +384,8 @@ def build_operator(
         near_pairs=counters["near_pairs"],
         lowrank_candidates=counters.get("lowrank_candidates", 0),
         lowrank_pairs=counters.get("lowrank_pairs", 0),
+        lowrank_cluster_pairs=counters.get("lowrank_cluster_pairs", 0),
+        lowrank_block_pairs=counters.get("lowrank_block_pairs", 0),
         lowrank_mixed_visibility=counters.get("lowrank_mixed", 0),
         lowrank_rank_cap=counters.get("lowrank_rank_cap", 0),
         lowrank_rank_mean=float(np.mean(counters["lowrank_ranks"])) if counters.get("lowrank_ranks") else 0.0,

@@ -52,8 +52,9 @@ class Bucket(eqx.Module):
 class LowRankBucket(eqx.Module):
     """Stacked low-rank blocks ``G[recv[k]][:, src[k]] ≈ u[k] @ v[k].T`` of one padded shape.
 
-    Far-apart, mutually visible block pairs (upper pairs ``a < b``, used in both directions:
-    the transposed block is ``v[k] @ u[k].T``, so the stored G stays exactly symmetric).
+    Well-separated pairs of clusters of blocks (used in both directions: the transposed block
+    is ``v[k] @ u[k].T``, so the stored G stays exactly symmetric). ``recv_block`` and
+    ``src_block`` name the block when a side is one block, and are −1 when it spans several.
     Padding rows and rank columns are zero.
     """
 
@@ -108,8 +109,13 @@ def _bucket_apply(bk: Bucket, xext: Array, out: Array, only_block=None) -> Array
     return out
 
 
-def _lowrank_apply(bk: LowRankBucket, xext: Array, out: Array, only_block=None) -> Array:
-    """out += (U Vᵀ) x[src] into recv and (V Uᵀ) x[recv] into src, batched like the dense case."""
+def _lowrank_apply(bk: LowRankBucket, xext: Array, out: Array, only_block=None,
+                   block_of=None) -> Array:
+    """out += (U Vᵀ) x[src] into recv and (V Uᵀ) x[recv] into src, batched like the dense case.
+
+    ``block_of``: the block of each patch, and −1 for the padding patch (for ``only_block``:
+    a side may span several blocks).
+    """
     n, sa, r = bk.u.shape
     sb = bk.v.shape[1]
     steps = n // bk.chunk
@@ -117,8 +123,6 @@ def _lowrank_apply(bk: LowRankBucket, xext: Array, out: Array, only_block=None) 
     v = bk.v.reshape(steps, bk.chunk, sb, r)
     rr = bk.recv.reshape(steps, bk.chunk, sa)
     ss = bk.src.reshape(steps, bk.chunk, sb)
-    rb = bk.recv_block.reshape(steps, bk.chunk)
-    sbk = bk.src_block.reshape(steps, bk.chunk)
 
     def compute(acc, uk, vk, rk, sk):
         uk, vk = uk.astype(xext.dtype), vk.astype(xext.dtype)
@@ -128,14 +132,14 @@ def _lowrank_apply(bk: LowRankBucket, xext: Array, out: Array, only_block=None) 
         return acc.at[sk].add(jnp.einsum("njr,nrc->njc", vk, t))
 
     def body(acc, xs):
-        uk, vk, rk, sk, rbk, sbkk = xs
+        uk, vk, rk, sk = xs
         if only_block is None:
             return compute(acc, uk, vk, rk, sk), None
-        touches = jnp.any((rbk == only_block) | (sbkk == only_block))
+        touches = jnp.any(block_of[rk] == only_block) | jnp.any(block_of[sk] == only_block)
         acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, uk, vk, rk, sk)
         return acc, None
 
-    out, _ = jax.lax.scan(body, out, (u, v, rr, ss, rb, sbk))
+    out, _ = jax.lax.scan(body, out, (u, v, rr, ss))
     return out
 
 
@@ -145,9 +149,10 @@ def _gmul(op: TransportOperator, x, only_block):
     x2 = x.reshape(shape[0], -1)
     xext = jnp.concatenate([x2, jnp.zeros((1, x2.shape[1]), x2.dtype)])
     out = jnp.zeros_like(xext)
+    block_of = jnp.concatenate([op.block_of, jnp.full((1,), -1, op.block_of.dtype)])
     for bk in op.buckets:
         if isinstance(bk, LowRankBucket):
-            out = _lowrank_apply(bk, xext, out, only_block)
+            out = _lowrank_apply(bk, xext, out, only_block, block_of)
         else:
             out = _bucket_apply(bk, xext, out, only_block)
     return out[:-1].reshape(shape)

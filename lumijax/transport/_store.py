@@ -43,7 +43,8 @@ from ._operator import Bucket, Info, LowRankBucket, TransportOperator
 __all__ = ["FORMAT", "OperatorFileError", "cache_path", "cached_operator", "operator_key", "read_operator",
            "write_operator"]
 
-FORMAT = "lumijax.transport/4"  # 3: second-order far-field kernel; 4: shadowed low rank
+FORMAT = "lumijax.transport/5"  # 3: second-order far-field kernel; 4: shadowed low rank;
+# 5: hierarchical far field (cluster pairs)
 """Container and operator format. Bump it whenever the file layout *or the form-factor maths*
 change: it is part of the cache key and of every file's header, and a file of another format is
 ignored (rebuilt), never read."""

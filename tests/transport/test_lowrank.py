@@ -107,7 +107,7 @@ def test_furnace_in_a_hall_with_compressed_far_field():
     part = partition(p, 48, occluders=tri)
     op = build_operator(p, part, tri)
     dense = build_operator(p, part, tri, DENSE)
-    assert op.info["lowrank_pairs"] > 0.2 * len(part.pairs)
+    assert op.info["lowrank_block_pairs"] > 0.2 * len(part.pairs)
     assert op.nbytes < dense.nbytes
     rho = 0.5
     sol = solve_radiosity(op, jnp.full(p.n, rho), jnp.ones((p.n, 1)))
@@ -135,23 +135,27 @@ def _ribbed_plates():
     return p, partition(p, 60, occluders=tri), tri
 
 
-def test_self_shadowed_far_pairs_are_compressed_with_their_shadows():
+@pytest.mark.parametrize("hierarchical", [True, False], ids=["clusters", "blocks"])
+def test_self_shadowed_far_pairs_are_compressed_with_their_shadows(hierarchical):
     p, part, tri = _ribbed_plates()
     dense = build_operator(p, part, tri, DENSE)
-    op = build_operator(p, part, tri)
+    op = build_operator(p, part, tri, FormFactorSettings(hierarchical=hierarchical))
+    flat = build_operator(p, part, tri, FormFactorSettings(hierarchical=False, lowrank_shadowed=False))
     info = op.info
-    assert info["lowrank_candidates"] > 0
-    # the ribs penetrate candidate hulls: the exact hull test alone keeps those pairs dense
-    assert info["lowrank_mixed_visibility"] > 0.5 * info["lowrank_candidates"]
-    assert info["lowrank_shadowed"] > 0.5 * info["lowrank_mixed_visibility"]
+    # the ribs penetrate the candidates' hulls: the exact hull test cannot prove them clear
+    assert flat.info["lowrank_mixed_visibility"] > 0.5 * flat.info["lowrank_candidates"]
+    assert flat.info["lowrank_pairs"] < 0.1 * flat.info["lowrank_candidates"]
+    # ... yet nearly every well-separated block pair ends up low rank, shadows and all
+    assert info["lowrank_mixed_visibility"] > 0
+    assert info["lowrank_block_pairs"] >= 0.9 * flat.info["lowrank_candidates"]
+    assert (info["lowrank_cluster_pairs"] > 0) == hierarchical
     assert op.nbytes < dense.nbytes
     fd = dense.todense()
     far = np.zeros_like(fd, bool)
     for bk in op.buckets:
         if isinstance(bk, LowRankBucket):
-            for r, s in zip(np.asarray(bk.recv_block), np.asarray(bk.src_block), strict=True):
-                if r >= 0:
-                    far[np.ix_(part.block(r), part.block(s))] = True
+            for r, s in zip(np.asarray(bk.recv), np.asarray(bk.src), strict=True):
+                far[np.ix_(r[r < p.n], s[s < p.n])] = True
     # the compressed pairs really are shadowed: facing entries with no light
     d = p.centroid[None] - p.centroid[:, None]
     facing = (np.einsum("ijk,ik->ij", d, p.normal) > 0) & (np.einsum("ijk,jk->ij", d, p.normal) < 0)
@@ -163,3 +167,61 @@ def test_self_shadowed_far_pairs_are_compressed_with_their_shadows():
         assert np.linalg.norm(got - want) <= 1e-3 * np.linalg.norm(want), name
     f = op.todense()  # the compressed blocks themselves: truncated to 1e-3 of their norm
     assert np.linalg.norm((f - fd)[far]) <= 1e-3 * np.linalg.norm(fd[far])
+
+
+def _plates_far_apart(patch_size: float):
+    """Two 4 × 4 m plates facing each other 12 m apart: every patch pair is far."""
+    tri = np.concatenate([quad([0, 0, 0], [4, 0, 0], [0, 4, 0]),
+                          quad([0, 0, 12], [0, 4, 0], [4, 0, 0])])
+    p = mesh_patches(tri, group=np.arange(len(tri)) // 2, patch_size=patch_size)
+    return p, partition(p, 64, occluders=tri), tri
+
+
+def test_cluster_pairs_make_far_field_memory_near_linear():
+    """Blocks of 64 patches: one level of block pairs grows as P², clusters as ~P."""
+    sizes, flat, hier = [], [], []
+    for h in (0.4, 0.2, 0.1):
+        p, part, tri = _plates_far_apart(h)
+        sizes.append(p.n)
+        flat.append(build_operator(p, part, tri, FormFactorSettings(hierarchical=False)).nbytes)
+        op = build_operator(p, part, tri)
+        assert op.info["lowrank_block_pairs"] == len(part.pairs)  # all of it low rank
+        assert op.info["rays"] == 0  # proven clear: no shadow ray
+        hier.append(op.nbytes)
+    growth = np.log(np.array(hier[1:]) / hier[:-1]) / np.log(np.array(sizes[1:]) / sizes[:-1])
+    flat_growth = np.log(flat[-1] / flat[-2]) / np.log(sizes[-1] / sizes[-2])
+    assert flat_growth > 1.6, flat_growth  # one level: quadratic in patches (up to padding)
+    assert growth[-1] < 1.3, growth  # clusters: near-linear
+    assert hier[-1] < 0.25 * flat[-1]
+
+
+def test_exact_check_rejects_a_factorisation_that_misses_a_shadow():
+    """Factors of the unshadowed kernel are wrong for a floor and ceiling with a plate between
+    them; the exact pass over every entry (not a sample) measures how wrong."""
+    from lumijax.scene._raycast import RayCaster
+    from lumijax.transport._lowrank import exact_block_rows, exact_error
+
+    p, part, tri = _far_plates(True)
+    ia, ib = np.flatnonzero(p.centroid[:, 2] < 1), np.flatnonzero(p.centroid[:, 2] > 11)
+    caster = RayCaster(tri)
+    counters = dict(rays=0)
+    args = (p.centroid[ia], p.normal[ia], p.area[ia], p.area[ia] / (4 * np.pi),
+            p.centroid[ib], p.normal[ib], p.area[ib], p.area[ib] / (4 * np.pi))
+    u, v, _ = aca_block(*args[:3], *args[4:7], 1e-3, 50, sa=args[3], sb=args[7])  # no shadow
+    err, ref = exact_error(u, v, *args, caster, counters)
+    assert counters["rays"] > 0.4 * len(ia) * len(ib)  # every facing entry's ray was cast
+    assert err > 1e-2 * ref  # the plate's shadow: the unshadowed factors are far off
+    err0, _ = exact_error(u, v, *args, None, dict(rays=0))
+    assert err0 < 1e-3 * ref  # ... and right for the unshadowed block
+    # the shadowed block's true rank at 1e-3 (numpy's SVD of every entry) is near full: below
+    # it, ACA with shadow rays must refuse rather than return factors that miss the shadow
+    g = exact_block_rows(*args, caster, dict(rays=0))
+    sv = np.linalg.svd(g, compute_uv=False)
+    rank = int(np.flatnonzero(np.sqrt(np.cumsum((sv**2)[::-1]))[::-1] <= 1e-3 * np.linalg.norm(sv))[0])
+    assert rank > 200
+    assert aca_block(*args[:3], *args[4:7], 1e-3, 100, sa=args[3], sb=args[7], caster=caster,
+                     counters=counters) is None
+    u, v, st = aca_block(*args[:3], *args[4:7], 1e-3, len(ia), sa=args[3], sb=args[7],
+                         caster=caster, counters=counters)
+    assert st["check_error"] <= 1e-3
+    assert np.linalg.norm(u @ v.T - g) <= 1e-3 * np.linalg.norm(g)
