@@ -95,7 +95,8 @@ def _chunking(n: int, per_pair: int, max_bytes: int) -> tuple[int, int]:
     return chunk, steps * chunk
 
 
-def _far_field(patches, part, s: FormFactorSettings, caster, triangles, diam, counters, spread):
+def _far_field(patches, part, s: FormFactorSettings, caster, triangles, diam, counters, spread,
+               dtype):
     """Walk the block tree: ``(far, near, dense)``.
 
     ``far``: ``(receivers, sources, U, V)`` low-rank leaves; ``near``: block pairs ``(a, b)``,
@@ -144,8 +145,9 @@ def _far_field(patches, part, s: FormFactorSettings, caster, triangles, diam, co
             if res is not None:
                 counters["lowrank_shadowed"] += 1
                 return res
+            # kept for the near field in the storage dtype (no float64 copy of every failure)
             ka, kb = int(a.blocks[0]), int(b.blocks[0])
-            dense[(ka, kb) if ka <= kb else (kb, ka)] = g if ka <= kb else g.T
+            dense[(ka, kb) if ka <= kb else (kb, ka)] = (g if ka <= kb else g.T).astype(dtype)
         counters["lowrank_rank_cap"] += 1
         return None
 
@@ -316,7 +318,7 @@ def build_operator(
     sizes = part.sizes
     npatch = patches.n
     far, near, computed = _far_field(patches, part, s, caster, occluder_triangles, diam,
-                                     counters, spread)
+                                     counters, spread, dtype)
     # Bucket every pair by its padded shape, and preallocate (no second copy).
     keys, lr_keys = {}, {}
     for k, (ia, ib, uu, _) in enumerate(far):
