@@ -89,18 +89,17 @@ def main(argv=None) -> None:
     from lumijax import load_study
     from lumijax.direct import direct_illuminance
     from lumijax.lighting import LightingSolution
-    from lumijax.lighting._final_gather import (
+    from lumijax.lighting._pipeline import _emission_groups, _grouped_scene, auto_patch_size
+    from lumijax.lighting._solution import shoot
+    from lumijax.lighting._spectral import SpectralSetup
+    from lumijax.radiosity import build_operator, mesh_patches, partition
+    from lumijax.radiosity._final_gather import (
         build_fine_gather,
         element_direct,
         fine_reflectance,
         reflect_onto_fine,
     )
-    from lumijax.lighting._gather import build_gather
-    from lumijax.lighting._solution import shoot
-    from lumijax.lighting._solve import _emission_groups, _grouped_scene, auto_patch_size
-    from lumijax.lighting._spectral import SpectralSetup
-    from lumijax.mesh import mesh_patches, partition
-    from lumijax.transport import build_operator
+    from lumijax.radiosity._gather import build_gather
 
     sampler = _Sampler()
     sampler.start()
@@ -219,7 +218,7 @@ def main(argv=None) -> None:
     stage("write results", lambda: write_results(res, out, images=True),
           lambda paths: f"{len(paths)} files")
     if lighting is not None:
-        from lumijax.results._vtk import write_patches_vtp
+        from lumijax.report._vtk import write_patches_vtp
 
         k = len(groups)
         stage("write patches.vtp (fine)",

@@ -69,10 +69,9 @@ def main(argv=None) -> None:
 
     import jax.numpy as jnp
 
-    from lumijax.lighting._solve import auto_patch_size
-    from lumijax.mesh import mesh_patches, partition
+    from lumijax.lighting._pipeline import auto_patch_size
+    from lumijax.radiosity import FormFactorSettings, build_operator, mesh_patches, partition
     from lumijax.scene._raycast import RayCaster
-    from lumijax.transport import FormFactorSettings, build_operator
 
     tri, group = courtyard_triangles(args.bays) if args.scene == "courtyard" else hall_triangles()
     tri = np.asarray(tri, np.float64)

@@ -43,7 +43,7 @@ def build_scene(rooms: int):
 
 
 def patch_size_for(tri, target: int) -> float:
-    from lumijax.mesh import mesh_patches
+    from lumijax.radiosity import mesh_patches
 
     lo, hi = 0.01, 5.0
     for _ in range(30):
@@ -82,8 +82,7 @@ def cache_rows(p, tri, max_block, settings=None):
     """Miss (partition + build + write) and hit (read + verify) times of cached_operator."""
     import tempfile
 
-    from lumijax.mesh import PartitionSettings
-    from lumijax.transport import cached_operator
+    from lumijax.radiosity import PartitionSettings, cached_operator
 
     with tempfile.TemporaryDirectory() as d:
         ps = PartitionSettings(max_block=max_block)
@@ -102,9 +101,13 @@ def cache_rows(p, tri, max_block, settings=None):
 def hall(args):
     import jax.numpy as jnp
 
-    from lumijax.mesh import mesh_patches, partition
-    from lumijax.solve import solve_radiosity
-    from lumijax.transport import FormFactorSettings, build_operator
+    from lumijax.radiosity import (
+        FormFactorSettings,
+        build_operator,
+        mesh_patches,
+        partition,
+        solve_radiosity,
+    )
 
     tri, group, mat = build_hall()
     ps = args.patch_size or patch_size_for(tri, args.patches)
@@ -178,10 +181,8 @@ def run(args):
     import jax
     import jax.numpy as jnp
 
-    from lumijax.mesh import mesh_patches, partition
+    from lumijax.radiosity import build_operator, mesh_patches, partition, solve_radiosity
     from lumijax.scene._raycast import RayCaster
-    from lumijax.solve import solve_radiosity
-    from lumijax.transport import build_operator
 
     rows = [("machine", f"{platform.node()} {platform.machine()}, {_nproc()} cores, jax {jax.__version__}")]
     rooms = args.rooms or max(1, round(args.patches / 5000))
@@ -266,9 +267,8 @@ def run(args):
 
 def compare_methods():
     """Analytic contour + quadrature (ours) versus ray-sampled hemispheres, parallel squares."""
-    from lumijax.mesh import mesh_patches, partition
+    from lumijax.radiosity import build_operator, mesh_patches, partition
     from lumijax.scene._raycast import RayCaster
-    from lumijax.transport import build_operator
 
     ref = 0.1998248957
     o = np.zeros(3)

@@ -4,7 +4,7 @@ segmentation chooses for the default study.
     python benchmarks/spectral.py [--patch-size 0.25] [--networks 3]
 
 A 6 × 5 × 3 m room (inward box) with a table, meshed and solved with
-``lumijax.solve.solve_radiosity`` for ``networks × n`` columns, n the number of spectral samples
+``lumijax.radiosity.solve_radiosity`` for ``networks × n`` columns, n the number of spectral samples
 (each column: per-wavelength reflectance, random direct light).
 """
 
@@ -47,9 +47,7 @@ def main(argv=None):
     import jax.numpy as jnp
     import trimesh
 
-    from lumijax.mesh import mesh_patches, partition
-    from lumijax.solve import solve_radiosity
-    from lumijax.transport import build_operator
+    from lumijax.radiosity import build_operator, mesh_patches, partition, solve_radiosity
 
     room = trimesh.creation.box(extents=(6, 5, 3))
     room.apply_translation([3, 2.5, 1.5])

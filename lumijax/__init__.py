@@ -5,8 +5,8 @@ superposition → objectives and optimisation → reports. See ``docs/convention
 frames and aim angles.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
+from ._study import Study as Study, compute as compute, load_study as load_study
+from ._version import __version__ as __version__
 from .errors import (
     ConfigError as ConfigError,
     GeometryError as GeometryError,
@@ -17,16 +17,6 @@ from .errors import (
     SolveError as SolveError,
     SpectrumError as SpectrumError,
 )
-
-try:
-    __version__ = version("lumijax")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0.0.0+unknown"
-
-from ._study import Study as Study, compute as compute, load_study as load_study
 from .optimise import Optimisation as Optimisation, optimise as optimise
-from .results import (
-    GridResult as GridResult,
-    Results as Results,
-    write_results as write_results,
-)
+from .report import write_results as write_results
+from .results import GridResult as GridResult, Results as Results

@@ -19,3 +19,4 @@ from ._schema import (
     StudyConfig as StudyConfig,
     StudyInfo as StudyInfo,
 )
+from ._targets import read_target_csv as read_target_csv

@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from ..errors import ConfigError
 from ._schema import StudyConfig
+from ._targets import read_target_csv
 
 __all__ = ["load_config", "parse_config"]
 
@@ -229,8 +230,6 @@ def _check_optimise(cfg: StudyConfig, fail) -> None:
     for i, g in enumerate(cfg.grids):
         if g.target_csv is None:
             continue
-        from ..optimise._targets import read_target_csv
-
         key = f"grids[{i}].target_csv"
         rows = read_target_csv(g.target_csv, key=key)
         n = _grid_size(g)

@@ -22,8 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-from ..transport._kernels import form_factor_point_triangle
-from ._kernels import pair_illuminance
+from ..kernels import form_factor_point_triangle, pair_illuminance
 
 __all__ = ["DirectLighting", "direct_illuminance", "sub_source_offsets", "support_cosine"]
 

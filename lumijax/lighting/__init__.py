@@ -1,9 +1,9 @@
-"""Direct and inter-reflected light of a study, per network (see ``docs/radiosity.md``)."""
+"""The lighting pipeline: runs the stages (direct light, radiosity, gather) of a study, per network,
+and holds their :class:`LightingSolution` (see ``docs/architecture.md``)."""
 
-from ._gather import GatherOperator as GatherOperator, build_gather as build_gather
-from ._solution import LightingSolution as LightingSolution
-from ._solve import (
+from ._pipeline import (
     SolverSettings as SolverSettings,
     auto_patch_size as auto_patch_size,
     solve_lighting as solve_lighting,
 )
+from ._solution import LightingSolution as LightingSolution

@@ -3,12 +3,12 @@
 Light adds linearly, so each network k is solved once at dimmer 1 and any dimmer vector α gives
 ``B = Σ_k α_k B_k`` exactly (the paper's equation 10). The pieces, in the order they are built:
 
-1. the scene's triangles cut into patches and partitioned into blocks (``lumijax.mesh``);
-2. the transport operator F of the visible block pairs (``lumijax.transport``);
+1. the scene's triangles cut into patches and partitioned into blocks (``lumijax.radiosity``);
+2. the transport operator F of the visible block pairs (``lumijax.radiosity``);
 3. direct irradiance on every patch and every calculation point, per (network, spectrum)
    group (``lumijax.direct``, shadows by ray casting);
 4. one batched solve ``(I − ρ(λ)F) B = ρ(λ) E_direct s(λ)`` for all groups and sample
-   wavelengths at once (``lumijax.solve``);
+   wavelengths at once (``lumijax.radiosity``);
 5. gathering ``G B`` of the inter-reflected light onto the calculation points, and the
    reduction of the spectral values to lux and CIE XYZ.
 
@@ -28,7 +28,7 @@ import numpy as np
 from jaxtyping import Float
 
 from ..direct import direct_illuminance
-from ._gather import GatherOperator
+from ..radiosity._gather import GatherOperator
 from ._spectral import SpectralSetup
 
 __all__ = ["LightingSolution"]
@@ -174,7 +174,7 @@ class LightingSolution:
             e_fine = None if self.fine_patches is None else sign * direct_illuminance(
                 one, self.fine_patches.centroid, self.fine_patches.normal).by_network[0]
             if e_fine is not None:  # two levels: the elements' direct is the fine flux's mean
-                from ._final_gather import element_means
+                from ..radiosity._final_gather import element_means
 
                 e_patch = element_means(self.fine_patches, self.patches, e_fine[None])[0][0]
             else:
@@ -200,7 +200,7 @@ class LightingSolution:
                     upd["radiosity_xyz"][k] += shot.radiosity_xyz[q]
                     upd["point_xyz"][k] += shot.point_xyz[q]
             if self.fine_patches is not None:
-                from ._final_gather import reflect_onto_fine
+                from ..radiosity._final_gather import reflect_onto_fine
 
                 rb, rxyz, rind = reflect_onto_fine(
                     self.fine_gather, self.fine_rho, np.stack([r[4] for r in rows]),
@@ -241,7 +241,7 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
         ``(src, patches)`` and ``(src, points)`` direct illuminance (lx), one row per source
         (group) with spectrum ``spectra[i]`` (None: the default).
     """
-    from ..solve import solve_radiosity
+    from ..radiosity import solve_radiosity
 
     t0 = time.perf_counter()
     sp = sol.spectral

@@ -4,11 +4,7 @@ from ._models import AimLight as AimLight, DimmerLight as DimmerLight
 from ._objective import Objective as Objective
 from ._optimise import Optimisation as Optimisation, optimise as optimise
 from ._solvers import SOLVERS as SOLVERS, minimise as minimise
-from ._targets import (
-           GridGoal as GridGoal,
-           grid_goals as grid_goals,
-           read_target_csv as read_target_csv,
-)
+from ._targets import GridGoal as GridGoal, grid_goals as grid_goals
 
 __all__ = ["optimise", "Optimisation", "Objective", "DimmerLight", "AimLight", "minimise",
-           "SOLVERS", "GridGoal", "grid_goals", "read_target_csv"]
+           "SOLVERS", "GridGoal", "grid_goals"]

@@ -137,7 +137,7 @@ class AimLight(eqx.Module):
         if self.base_radiosity is not None:
             b = alpha @ self.base_radiosity
         if self.transport is not None:
-            from ..solve import solve_radiosity
+            from ..radiosity import solve_radiosity
 
             dt = operator_dtype(self.transport)
             d_patch = flat[n:] - alpha @ self.start_patch
@@ -212,7 +212,7 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
         if caster is not None and len(cand):
             blocked = caster.occluded(np.broadcast_to(lum.position, (len(cand), 3)), rcv[cand])
             cand = cand[~blocked]
-        # the aim-independent part of the pair kernel (lumijax.direct._kernels._pair)
+        # the aim-independent part of the pair kernel (lumijax.kernels._direct._pair)
         dv = d[cand]
         r2 = np.maximum(np.einsum("ij,ij->i", dv, dv), 1e-12)
         w = dv / np.sqrt(r2)[:, None]

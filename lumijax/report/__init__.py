@@ -18,6 +18,8 @@ from ._views import (
     view_colours,
     write_png,
 )
+from ._vtk import write_patches_vtp
+from ._write import write_results
 
 __all__ = [
     "falsecolour_map", "lux_to_rgb", "nice_levels", "make_view", "DEFAULT_CMAP",
@@ -28,4 +30,5 @@ __all__ = [
     "fitting_colour", "beam_outline", "write_png",
     "polar_plot", "beam_angle_deg",
     "write_report", "report_context", "render_report", "grid_criteria",
+    "write_results", "write_patches_vtp",
 ]

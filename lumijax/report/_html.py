@@ -209,7 +209,7 @@ def _grid_maps(results, timings) -> dict[str, str]:
 def report_context(study, results, *, cameras=None, pictures: bool = True,
                    config_path: str | Path | None = None) -> dict[str, Any]:
     """Everything ``report.html`` shows, as plain values (numbers already formatted)."""
-    from .. import __version__
+    from .._version import __version__
     from ._polar import beam_angle_deg, polar_plot
 
     timings: dict[str, float] = {}

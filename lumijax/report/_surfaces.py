@@ -144,7 +144,7 @@ def surface_light(results, *, illuminance: bool = False, target_patches: int = 3
 
 def _direct_patches(scene, target_patches: int):
     from ..direct import direct_illuminance
-    from ..mesh import mesh_patches
+    from ..radiosity import mesh_patches
 
     tri = scene.triangles
     total = float(np.sum(tri.areas))

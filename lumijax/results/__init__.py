@@ -1,4 +1,4 @@
-"""Study results: per-grid illuminance by network, statistics, and atomic writing."""
+"""Study results: per-grid illuminance by network and statistics (writing lives in ``lumijax.report``)."""
 
 from ._results import (
     CRITERIA_SLACK as CRITERIA_SLACK,
@@ -6,4 +6,3 @@ from ._results import (
     Results as Results,
     grid_stats as grid_stats,
 )
-from ._write import write_results as write_results

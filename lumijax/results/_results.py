@@ -120,7 +120,7 @@ class Results:
         return self.grids[grid]
 
     def to_dict(self) -> dict[str, Any]:
-        from .. import __version__
+        from .._version import __version__
 
         return {
             "study": self.study,

@@ -199,7 +199,7 @@ def test_integrating_sphere_two_levels(tmp_path, rho):
 def test_patches_file_holds_the_fine_patches(room, tmp_path):
     import pyvista as pv
 
-    from lumijax.results._vtk import write_patches_vtp
+    from lumijax.report._vtk import write_patches_vtp
 
     _, _, _, _, two = room
     mesh = pv.read(write_patches_vtp(two, [1.0, 0.5], tmp_path / "p.vtp"))

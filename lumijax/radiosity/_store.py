@@ -1,4 +1,4 @@
-"""The on-disk container of a :class:`TransportOperator`, and the cache built on it.
+"""The on-disk container of a :class:`TransportOperator` (the cache on it is ``_cache.py``).
 
 File layout (little-endian)::
 
@@ -13,21 +13,14 @@ never builds an operator from damaged bytes. Files are written through
 :func:`lumijax._atomic.atomic_path` (temporary file, fsync, one rename): concurrent writers of one
 key each rename a complete file into place and the last one wins; a reader sees an old complete
 file or a new complete file, never a mix.
-
-The cache key (:func:`operator_key`) is a SHA-256 of everything that changes F: the patches'
-geometry and groups (so the triangles and the meshing settings), the occluding triangles, the
-partition and form-factor settings, the storage dtype and :data:`FORMAT`. Materials, reflectances,
-luminaires and dimmers are deliberately not in it: they do not change F.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import os
 import struct
-import warnings
 from pathlib import Path
 
 import jax
@@ -35,13 +28,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._atomic import atomic_path
-from ..errors import LumijaxWarning, OutputError
-from ..mesh._partition import PartitionSettings, partition
-from ..mesh._patches import Patches
+from ..errors import OutputError
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
 
-__all__ = ["FORMAT", "OperatorFileError", "cache_path", "cached_operator", "operator_key", "read_operator",
-           "write_operator"]
+__all__ = ["FORMAT", "OperatorFileError", "read_operator", "write_operator"]
 
 FORMAT = "lumijax.transport/5"  # 3: second-order far-field kernel; 4: shadowed low rank;
 # 5: hierarchical far field (cluster pairs)
@@ -184,125 +174,3 @@ def read_operator(path: str | Path, *, key: str | None = None) -> TransportOpera
 # -- key and cache --------------------------------------------------------------------------------
 
 
-def _jsonable(x):
-    if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        return {"__type__": type(x).__name__, **dataclasses.asdict(x)}
-    if isinstance(x, (np.dtype, type)):
-        return np.dtype(x).str
-    return str(x)
-
-
-def _hash_array(h, a) -> None:
-    a = np.ascontiguousarray(a)
-    h.update(str((a.dtype.str, a.shape)).encode())
-    h.update(memoryview(a.reshape(-1)).cast("B") if a.size else b"")
-
-
-def operator_key(geometry, group=None, *, occluders=None, **settings) -> str:
-    """SHA-256 hex digest of everything that determines the form factors F.
-
-    Parameters
-    ----------
-    geometry
-        :class:`~lumijax.mesh.Patches` (then their vertices, normals and groups are hashed:
-        this covers the triangles *and* the meshing settings exactly), or the scene's triangles
-        ``(T, 3, 3)`` with ``group`` and the meshing settings passed in ``settings``.
-    group
-        ``(T,)`` user groups of the triangles (ignored for Patches, which carry their own).
-    occluders
-        Triangles ``(T, 3, 3)`` used for shadow rays, or ``None``.
-    settings
-        Anything else that changes F, JSON-serialisable or dataclasses: ``patch_size=``,
-        ``partition=PartitionSettings(...)``, ``form_factors=FormFactorSettings(...)``,
-        ``dtype=np.float32``.
-
-    Materials and reflectances must *not* be passed: they do not change F, and a study that only
-    changes them must hit the cache.
-    """
-    h = hashlib.sha256(FORMAT.encode())
-    if isinstance(geometry, Patches):
-        for a in (geometry.vertices, geometry.normal, geometry.group):
-            _hash_array(h, a)
-    else:
-        tri = np.asarray(geometry, np.float64)
-        _hash_array(h, tri)
-        _hash_array(h, np.full(len(tri), -1, np.int64) if group is None else np.asarray(group))
-    h.update(b"occluders")
-    if occluders is not None:
-        _hash_array(h, np.asarray(occluders, np.float64))
-    h.update(json.dumps(settings, sort_keys=True, default=_jsonable).encode())
-    return h.hexdigest()
-
-
-def cache_path(cache_dir: str | Path, key: str) -> Path:
-    """Where the operator of ``key`` lives in ``cache_dir``."""
-    return Path(cache_dir) / f"transport-{key}.lmjop"
-
-
-def cached_operator(
-    patches: Patches,
-    occluders=None,
-    settings=None,
-    *,
-    cache_dir: str | Path,
-    partition_settings: PartitionSettings | None = None,
-    dtype=np.float32,
-    caster=None,
-) -> tuple[TransportOperator, bool]:
-    """The transport operator of ``patches``, from ``cache_dir`` if it holds it, else built.
-
-    On a miss the partition (with its occlusion rays) and the operator are built and written
-    atomically to ``cache_dir/transport-<key>.lmjop``; on a hit no ray is cast at all. A
-    corrupt or truncated file gives a :class:`~lumijax.errors.LumijaxWarning` ("cache file …
-    is corrupt; rebuilding") and is rebuilt and rewritten; a file of another format version is
-    rebuilt silently. A cache folder that cannot be written gives a warning, not an error.
-
-    Parameters
-    ----------
-    patches
-        From :func:`~lumijax.mesh.mesh_patches`.
-    occluders
-        Scene triangles ``(T, 3, 3)`` for shadow rays (an array: it is part of the key), or
-        ``None``.
-    settings
-        :class:`FormFactorSettings` (default settings if ``None``).
-    cache_dir
-        The cache folder (the study's ``.lumijax-cache/``); created if missing.
-    partition_settings
-        :class:`~lumijax.mesh.PartitionSettings` for :func:`~lumijax.mesh.partition`.
-    dtype
-        Block storage, float32 or float64.
-    caster
-        An already built ``RayCaster`` of ``occluders`` to reuse on a miss (not part of the key).
-
-    Returns
-    -------
-    ``(operator, hit)``: ``hit`` is True when the operator came from the cache.
-    """
-    from ._build import FormFactorSettings, build_operator
-
-    settings = settings or FormFactorSettings()
-    ps = partition_settings or PartitionSettings()
-    occ = None if occluders is None else np.asarray(occluders, np.float64)
-    key = operator_key(patches, occluders=occ, partition=ps, form_factors=settings,
-                       dtype=np.dtype(dtype))
-    path = cache_path(cache_dir, key)
-    if path.exists():
-        try:
-            return read_operator(path, key=key), True
-        except OperatorFileError as e:
-            if e.reason != "format":
-                warnings.warn(f"cache file {path} is corrupt ({e.message}); rebuilding",
-                              LumijaxWarning, stacklevel=2)
-    if occ is not None and caster is None:
-        from ..scene._raycast import RayCaster
-
-        caster = RayCaster(occ)
-    part = partition(patches, **dataclasses.asdict(ps), occluders=caster)
-    op = build_operator(patches, part, caster, settings, dtype=dtype, occluder_triangles=occ)
-    try:
-        write_operator(path, op, key=key)
-    except OutputError as e:
-        warnings.warn(f"cannot write cache file {path} ({e.message}); continuing without it",
-                      LumijaxWarning, stacklevel=2)
-    return op, False

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kernels import far_g
+from ..kernels import far_g
 
 __all__ = ["Obstacles", "aca_block", "block_spheres", "exact_error", "truncate_block",
            "well_separated"]

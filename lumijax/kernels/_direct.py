@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
-from ..transport._kernels import form_factor_point_triangle
+from ._form_factors import form_factor_point_triangle
 
 __all__ = ["point_illuminance", "pair_illuminance", "quad_form_factors"]
 
@@ -83,7 +83,7 @@ def quad_form_factors(
 ) -> Float[Array, "points quads"]:
     """Form factors from each receiver point to each one-sided quad ``v0 v1 v2 v3`` (front face
     by the right-hand rule): the sum over its two triangles of Lambert's contour integral with
-    horizon clipping (:func:`lumijax.transport.form_factor_point_triangle`), exact."""
+    horizon clipping (:func:`lumijax.radiosity.form_factor_point_triangle`), exact."""
     tris = jnp.stack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], axis=1)  # (quads, 2, 3, 3)
     f = form_factor_point_triangle(points[:, None, None, :], normals[:, None, None, :],
                                    tris[None])

@@ -7,15 +7,17 @@ import numpy as np
 import pytest
 import trimesh
 
-from lumijax.mesh import mesh_patches, partition
-from lumijax.solve import solve_radiosity
-from lumijax.transport import (
+from lumijax.radiosity import (
     FormFactorSettings,
     LowRankBucket,
     build_operator,
     load_operator,
+    mesh_patches,
+    partition,
+    save_operator,
+    solve_radiosity,
 )
-from lumijax.transport._lowrank import aca_block
+from lumijax.radiosity._lowrank import aca_block
 
 from .conftest import quad
 
@@ -77,7 +79,7 @@ def test_products_of_low_rank_buckets_match_todense(plates):
 
 def test_low_rank_operator_survives_save_and_load(plates, tmp_path):
     p, op, _, _ = plates
-    op.save(tmp_path / "op.lmjop")
+    save_operator(tmp_path / "op.lmjop", op)
     back = load_operator(tmp_path / "op.lmjop")
     assert [type(b) for b in back.buckets] == [type(b) for b in op.buckets]
     x = jnp.asarray(np.random.default_rng(2).random((p.n, 2)), jnp.float32)
@@ -198,8 +200,8 @@ def test_cluster_pairs_make_far_field_memory_near_linear():
 def test_exact_check_rejects_a_factorisation_that_misses_a_shadow():
     """Factors of the unshadowed kernel are wrong for a floor and ceiling with a plate between
     them; the exact pass over every entry (not a sample) measures how wrong."""
+    from lumijax.radiosity._lowrank import exact_block_rows, exact_error
     from lumijax.scene._raycast import RayCaster
-    from lumijax.transport._lowrank import exact_block_rows, exact_error
 
     p, part, tri = _far_plates(True)
     ia, ib = np.flatnonzero(p.centroid[:, 2] < 1), np.flatnonzero(p.centroid[:, 2] > 11)

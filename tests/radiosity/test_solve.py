@@ -10,9 +10,13 @@ import pytest
 import trimesh
 
 from lumijax.errors import SolveError
-from lumijax.mesh import mesh_patches, partition, subdivide_triangles
-from lumijax.solve import solve_radiosity
-from lumijax.transport import build_operator
+from lumijax.radiosity import (
+    build_operator,
+    mesh_patches,
+    partition,
+    solve_radiosity,
+    subdivide_triangles,
+)
 
 from .conftest import quad, surface_factor
 

@@ -23,12 +23,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..mesh._partition import Partition
-from ..mesh._patches import Patches, _template
+from ..kernels import far_g, form_factor_point_triangle, triangle_spread
 from ._hierarchy import cluster_tree, walk_block_tree
-from ._kernels import far_g, form_factor_point_triangle, triangle_spread
 from ._lowrank import Obstacles, aca_block, block_spheres, truncate_block, well_separated
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
+from ._partition import Partition
+from ._patches import Patches, _template
 
 __all__ = ["FormFactorSettings", "build_operator"]
 
@@ -292,7 +292,7 @@ def build_operator(
     Parameters
     ----------
     patches, part
-        From :func:`~lumijax.mesh.mesh_patches` and :func:`~lumijax.mesh.partition`.
+        From :func:`~lumijax.radiosity.mesh_patches` and :func:`~lumijax.radiosity.partition`.
     occluders
         Scene triangles ``(T, 3, 3)`` (or a ``RayCaster``) for shadow rays; ``None``: no
         occlusion (convex scenes, tests).

@@ -1,4 +1,4 @@
-"""Adaptive refinement (lumijax.mesh.refine_patches) against the closed-form direct light of a
+"""Adaptive refinement (lumijax.radiosity.refine_patches) against the closed-form direct light of a
 point source above a floor, with a box casting a sharp shadow.
 
 The reference is independent of lumijax's kernels: E(x) = I cos θ / d² for an isotropic source
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import lumijax
-from lumijax.mesh import edge_neighbours, mesh_patches, refine_patches
-from lumijax.mesh._refine import _split4
+from lumijax.radiosity import edge_neighbours, mesh_patches, refine_patches
+from lumijax.radiosity._refine import _split4
 
 PHI = 4000.0  # lm
 SOURCE = np.array([1.0, 1.0, 1.2])
@@ -168,7 +168,7 @@ def test_edge_neighbours_across_t_junctions():
     deg = np.bincount(np.concatenate([i, j]), minlength=p.n)
     k = int(np.flatnonzero(deg == 3)[0])
     keep = np.arange(p.n) != k
-    from lumijax.mesh._refine import _concat
+    from lumijax.radiosity._refine import _concat
 
     q = _concat(p.subset(keep), _split4(p.subset(np.array([k]))))
     i, j = edge_neighbours(q)

@@ -91,7 +91,7 @@ def build_gather(
     points, normals
         Calculation points (m) and the normals of their measuring planes.
     patches
-        :class:`lumijax.mesh.Patches` of the scene.
+        :class:`lumijax.radiosity.Patches` of the scene.
     caster
         The scene's :class:`lumijax.scene.RayCaster` (over the same triangles the patches
         subdivide).

@@ -14,7 +14,6 @@ patch ``P`` whose value is zero.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import equinox as eqx
 import jax
@@ -29,7 +28,6 @@ __all__ = [
     "Info",
     "TransportOperator",
     "ReflectionOperator",
-    "load_operator",
 ]
 
 
@@ -167,7 +165,7 @@ class TransportOperator(eqx.Module):
     """Form factors ``F`` (dimensionless, rows: receivers) of a patch mesh, block-sparse.
 
     ``F_ij`` is the fraction of the flux leaving patch i (diffusely, from its front) that arrives
-    on the front of patch j. Build with :func:`~lumijax.transport.build_operator`.
+    on the front of patch j. Build with :func:`~lumijax.radiosity.build_operator`.
     """
 
     buckets: tuple[Bucket | LowRankBucket, ...]
@@ -231,25 +229,6 @@ class TransportOperator(eqx.Module):
     def lowrank_nbytes(self) -> int:
         """Bytes in low-rank buckets (the compressed far field)."""
         return int(sum(_bucket_nbytes(bk) for bk in self.buckets if isinstance(bk, LowRankBucket)))
-
-    # -- persistence: a checksummed container (see _store.py) --------------------------------------
-    def save(self, path: str | Path, *, key: str | None = None) -> Path:
-        """Write the operator to ``path`` atomically, with a SHA-256 of its content."""
-        from ._store import write_operator
-
-        return write_operator(path, self, key=key)
-
-
-def load_operator(path: str | Path, *, key: str | None = None) -> TransportOperator:
-    """Read an operator written by :meth:`TransportOperator.save`.
-
-    Raises :class:`~lumijax.transport.OperatorFileError` if the file is truncated or corrupt
-    (checksum mismatch), was written by another format version, or (with ``key``) holds
-    another operator.
-    """
-    from ._store import read_operator
-
-    return read_operator(path, key=key)
 
 
 # -- K = ρF as a lineax operator ------------------------------------------------------------------

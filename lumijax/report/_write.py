@@ -17,7 +17,7 @@ import numpy as np
 
 from .._atomic import file_mode
 from ..errors import LumijaxError, OutputError
-from ._results import Results
+from ..results import Results
 
 __all__ = ["write_results"]
 
@@ -70,7 +70,7 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
             )
             written[f"grids/{name}.csv"] = Path("grids") / f"{name}.csv"
         if images and results.grids:
-            from ..report import falsecolour_map
+            from ._falsecolour import falsecolour_map
 
             (staging / "images").mkdir()
             for name, g in results.grids.items():

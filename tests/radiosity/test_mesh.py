@@ -8,8 +8,14 @@ import pytest
 import trimesh
 
 from lumijax.errors import GeometryError
-from lumijax.mesh import mesh_patches, partition
-from lumijax.transport import build_operator, load_operator, operator_key
+from lumijax.radiosity import (
+    build_operator,
+    load_operator,
+    mesh_patches,
+    operator_key,
+    partition,
+    save_operator,
+)
 
 from .conftest import quad
 
@@ -90,7 +96,7 @@ def test_save_load_roundtrip_and_key(tmp_path):
     tri, group = _two_rooms()
     p = mesh_patches(tri, group=group, patch_size=1.5)
     op = build_operator(p, partition(p, 64, occluders=tri), tri)
-    op.save(tmp_path / "op.npz")
+    save_operator(tmp_path / "op.npz", op)
     back = load_operator(tmp_path / "op.npz")
     x = jnp.asarray(np.random.default_rng(0).random((p.n, 3)))
     assert np.allclose(back.matmul(x), op.matmul(x))

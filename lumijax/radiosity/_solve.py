@@ -28,7 +28,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ..errors import SolveError
-from ..transport._operator import ReflectionOperator, TransportOperator
+from ._operator import ReflectionOperator, TransportOperator
 
 __all__ = ["RadiositySolution", "solve_radiosity", "check_reflectance", "escaped_fraction"]
 
@@ -126,7 +126,7 @@ def solve_radiosity(
     Parameters
     ----------
     transport
-        Form factors F from :func:`~lumijax.transport.build_operator`.
+        Form factors F from :func:`~lumijax.radiosity.build_operator`.
     rho
         Reflectance, dimensionless, 0 ≤ ρ < 1; ``(P,)`` (same for all columns) or any shape that
         broadcasts against ``B₀`` (e.g. ``(P, 1, W)`` for per-wavelength reflectance with

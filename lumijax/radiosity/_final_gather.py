@@ -39,7 +39,7 @@ class FineLevel:
     Attributes
     ----------
     patches
-        The fine :class:`lumijax.mesh.Patches`.
+        The fine :class:`lumijax.radiosity.Patches`.
     gather
         Sparse map from element radiosity to fine-patch irradiance (lx).
     rho

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..direct import direct_illuminance
 from ..errors import LumijaxWarning
-from ._gather import build_gather
+from ..radiosity._gather import build_gather
 from ._solution import LightingSolution, shoot
 from ._spectral import SpectralSetup
 
@@ -73,8 +73,13 @@ def solve_lighting(
         Folder of the on-disk operator cache (``.lumijax-cache`` beside the config); ``None``
         builds the operator every time.
     """
-    from ..mesh import PartitionSettings, mesh_patches, partition
-    from ..transport import build_operator, cached_operator
+    from ..radiosity import (
+        PartitionSettings,
+        build_operator,
+        cached_operator,
+        mesh_patches,
+        partition,
+    )
 
     timing: dict[str, float] = {}
     stats: dict = {}
@@ -118,7 +123,7 @@ def solve_lighting(
     size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     if settings.refine:
-        from ..mesh import refine_patches
+        from ..radiosity import refine_patches
 
         patches = refine_patches(
             patches, lambda p: direct_illuminance(gscene, p.centroid, p.normal).by_network,
@@ -154,7 +159,7 @@ def solve_lighting(
         direct_patch = direct_illuminance(gscene, patches.centroid, patches.normal,
                                           progress=stage("direct light on patches"))
     else:  # exact on the fine patches; the elements get their area means (flux conserved)
-        from ._final_gather import element_direct
+        from ..radiosity._final_gather import element_direct
 
         direct_fine, direct_patch = element_direct(gscene, fine, patches,
                                                    progress=stage("direct light on patches"))
@@ -186,7 +191,7 @@ def solve_lighting(
     timing.update(shot.timing_s)
     two = {}
     if fine is not None:
-        from ._final_gather import final_gather
+        from ..radiosity._final_gather import final_gather
 
         t = time.perf_counter()
         lvl = final_gather(fine, patches, caster, spectral, [g[1] for g in groups],
@@ -221,7 +226,7 @@ def _two_levels(patches, tri, size: float, operator_patches: int | None):
     (``fine`` None: one level, when not asked for or when the elements would not be coarser)."""
     if operator_patches is None:
         return patches, None
-    from ..mesh import mesh_patches
+    from ..radiosity import mesh_patches
 
     esize = auto_patch_size(float(tri.areas.sum()), operator_patches)
     if esize <= size:

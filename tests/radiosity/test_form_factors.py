@@ -6,7 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from lumijax.transport import form_factor_point_triangle
+from lumijax.kernels import form_factor_point_triangle
 
 from .conftest import disk, quad, surface_factor
 

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from lumijax.mesh import mesh_patches, partition
-from lumijax.transport import build_operator
+from lumijax.radiosity import build_operator, mesh_patches, partition
 
 
 def quad(o, u, v) -> np.ndarray:

@@ -1,0 +1,15 @@
+"""Pure JAX kernels shared by direct light and form factors: point-source pair illuminance, Lambert's
+contour integral over triangles and quads, and the far-field form-factor kernel. No visibility here:
+callers multiply by visibility from ray casting (see ``docs/conventions.md``)."""
+
+from ._direct import (
+    pair_illuminance as pair_illuminance,
+    point_illuminance as point_illuminance,
+    quad_form_factors as quad_form_factors,
+)
+from ._form_factors import (
+    far_g as far_g,
+    form_factor_far as form_factor_far,
+    form_factor_point_triangle as form_factor_point_triangle,
+    triangle_spread as triangle_spread,
+)

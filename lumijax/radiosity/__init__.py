@@ -1,0 +1,51 @@
+"""The radiosity wing: patches, partition, transport operator, its cache, the solve and the gather.
+
+Data flow inside the wing (see ``docs/radiosity.md`` and ``docs/architecture.md``)::
+
+    triangles ─ mesh_patches ─▶ Patches ─ partition ─▶ Partition ─ build_operator ─▶ TransportOperator
+        (cached by cached_operator)                                                     │
+    B₀ (direct light per patch) ───────────────────── solve_radiosity ◀────────────────┘
+                                                            │
+    grids ─ build_gather ─▶ GatherOperator ◀── B (radiosity per patch) ─▶ illuminance on grids
+"""
+
+from ._build import FormFactorSettings as FormFactorSettings, build_operator as build_operator
+from ._cache import (
+    cache_path as cache_path,
+    cached_operator as cached_operator,
+    operator_key as operator_key,
+)
+from ._gather import GatherOperator as GatherOperator, build_gather as build_gather
+from ._operator import (
+    Bucket as Bucket,
+    LowRankBucket as LowRankBucket,
+    ReflectionOperator as ReflectionOperator,
+    TransportOperator as TransportOperator,
+)
+from ._partition import (
+    Partition as Partition,
+    PartitionSettings as PartitionSettings,
+    partition as partition,
+)
+from ._patches import (
+    Patches as Patches,
+    mesh_patches as mesh_patches,
+    subdivide_triangles as subdivide_triangles,
+)
+from ._refine import (
+    Refinement as Refinement,
+    edge_neighbours as edge_neighbours,
+    refine_patches as refine_patches,
+)
+from ._solve import (
+    RadiositySolution as RadiositySolution,
+    check_reflectance as check_reflectance,
+    escaped_fraction as escaped_fraction,
+    solve_radiosity as solve_radiosity,
+)
+from ._store import (
+    FORMAT as FORMAT,
+    OperatorFileError as OperatorFileError,
+    read_operator as load_operator,
+    write_operator as save_operator,
+)
