@@ -84,7 +84,7 @@ def _optimisation_table(opt, console) -> None:
 def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
          cache_dir: Path | None = None, optimise: bool = True, report: bool = True) -> int:
     from ._study import compute, load_study
-    from .results import write_results
+    from .report import write_results
 
     t0 = time.perf_counter()
     study = load_study(config)
