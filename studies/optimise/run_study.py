@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import lumijax
-from lumijax.results import write_results
+from lumijax.report import write_results
 
 HERE = Path(__file__).resolve().parent
 CONFIG = HERE / "facade" / "study.toml"
