@@ -371,6 +371,14 @@ class PointsGrid(_GridBase):
 Grid = Annotated[PlaneGrid | PointsGrid, Field(discriminator="kind")]
 
 
+#: Names of the tone curves of ``report._tonemap.TONE_CURVES`` and of the optimisers of
+#: ``optimise._solvers.OPTIMISERS`` (``"auto"``: the default one); each registry is checked
+#: against its Literal at import (lumijax/_registry.py).
+ToneCurveName = Literal["filmic", "reinhard", "clip"]
+OptimiserName = Literal["auto", "lbfgsb", "jaxopt_lbfgsb", "projected_gradient",
+                        "levenberg_marquardt", "gauss_newton", "dogleg", "bfgs"]
+
+
 class CameraConfig(_Model):
     """``[cameras.NAME]``: a view of the scene for the report and the viewer (docs/report.md)."""
 
@@ -383,7 +391,7 @@ class CameraConfig(_Model):
     scale: Literal["linear", "log"] = "log"
     levels: list[Positive] | None = None
     exposure_ev: Finite | None = Field(None, description="EV at ISO 100; None: automatic")
-    tone: Literal["filmic", "reinhard", "clip"] = "filmic"
+    tone: ToneCurveName = "filmic"
     size: tuple[Annotated[int, Field(ge=64, le=8192)], Annotated[int, Field(ge=64, le=8192)]] = (
         1280, 800)
     markers: bool = False
@@ -426,8 +434,7 @@ class OptimiseConfig(_Model):
 
     variables: Annotated[list[Literal["dimmers", "aims", "levels"]], Field(min_length=1)] = [
         "dimmers"]
-    solver: Literal["auto", "levenberg_marquardt", "gauss_newton", "dogleg", "bfgs", "lbfgsb",
-                    "projected_gradient", "jaxopt_lbfgsb"] = "auto"
+    solver: OptimiserName = "auto"
     max_steps: Annotated[int, Field(ge=1, le=100_000)] = 200
     tolerance: Annotated[float, Field(gt=0, lt=1)] = 1e-8
     dimmer_min: Annotated[float, Field(ge=0, le=1)] = 0.0

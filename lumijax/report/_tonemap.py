@@ -15,19 +15,25 @@ Tone curves (applied to linear sRGB after exposure, before the sRGB transfer fun
 * ``"reinhard"``: Reinhard et al. (2002) with white point W = 4 on luminance,
   Y' = Y(1 + Y/W²)/(1 + Y), the colour scaled by Y'/Y (hue kept), then clipped;
 * ``"clip"``: a linear camera: values above 1 clip to white.
+
+:data:`TONE_CURVES` is the registry of these curves (colour-science's pattern), checked against
+the schema's ``ToneCurveName`` at import: a new curve is one function and one registry line.
 """
 
 from __future__ import annotations
 
-from typing import Literal
+from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import OutputError
+from .._registry import Registry
+from ..config._schema import ToneCurveName
+from ..errors import ConfigError, OutputError
 
-__all__ = ["ev100", "exposure_scale", "auto_ev100", "tone_map", "Tone", "REINHARD_WHITE"]
+__all__ = ["ev100", "exposure_scale", "auto_ev100", "tone_map", "Tone", "TONE_CURVES",
+           "REINHARD_WHITE"]
 
-Tone = Literal["filmic", "reinhard", "clip"]
+Tone = ToneCurveName
 #: Reflected-light meter calibration constant (cd·s/m², ISO 2720) and the film speed assumed.
 K_METER = 12.5
 ISO = 100.0
@@ -67,8 +73,23 @@ def auto_ev100(luminance, weights=None, quantile: float = 0.5) -> float:
     return ev100(lum[order][i])
 
 
-def _filmic(x: np.ndarray) -> np.ndarray:
-    return np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
+def _filmic(rgb: np.ndarray, y: np.ndarray) -> np.ndarray:
+    return np.clip(rgb * (2.51 * rgb + 0.03) / (rgb * (2.43 * rgb + 0.59) + 0.14), 0.0, 1.0)
+
+
+def _reinhard(rgb: np.ndarray, y: np.ndarray) -> np.ndarray:
+    y_new = y * (1.0 + y / REINHARD_WHITE**2) / (1.0 + y)
+    ratio = np.divide(y_new, y, out=np.zeros_like(y), where=y > 0)
+    return np.clip(rgb * ratio[..., None], 0.0, 1.0)
+
+
+def _clip(rgb: np.ndarray, y: np.ndarray) -> np.ndarray:
+    return np.clip(rgb, 0.0, 1.0)
+
+
+#: ``tone`` name -> curve ``(exposed linear sRGB (..., 3), exposed luminance (...)) -> [0, 1]``.
+TONE_CURVES: Registry[Callable[[np.ndarray, np.ndarray], np.ndarray]] = Registry(
+    "tone", ToneCurveName, {"filmic": _filmic, "reinhard": _reinhard, "clip": _clip})
 
 
 def tone_map(xyz_cdm2, ev: float, tone: Tone = "filmic") -> np.ndarray:
@@ -80,18 +101,12 @@ def tone_map(xyz_cdm2, ev: float, tone: Tone = "filmic") -> np.ndarray:
     """
     import colour
 
+    try:
+        curve = TONE_CURVES[tone]
+    except ConfigError as e:  # not a config key here but an argument: the output's error
+        raise OutputError(e.message, key="tone") from None
     a = np.asarray(xyz_cdm2, np.float64)
+    scale = exposure_scale(ev)
     rgb = np.asarray(colour.XYZ_to_sRGB(a, apply_cctf_encoding=False), np.float64)
-    rgb = np.maximum(rgb, 0.0) * exposure_scale(ev)
-    if tone == "filmic":
-        rgb = _filmic(rgb)
-    elif tone == "reinhard":
-        y = np.maximum(a[..., 1] * exposure_scale(ev), 0.0)
-        y_new = y * (1.0 + y / REINHARD_WHITE**2) / (1.0 + y)
-        ratio = np.divide(y_new, y, out=np.zeros_like(y), where=y > 0)
-        rgb = np.clip(rgb * ratio[..., None], 0.0, 1.0)
-    elif tone == "clip":
-        rgb = np.clip(rgb, 0.0, 1.0)
-    else:
-        raise OutputError(f"tone must be 'filmic', 'reinhard' or 'clip', got {tone!r}", key="tone")
+    rgb = curve(np.maximum(rgb, 0.0) * scale, np.maximum(a[..., 1] * scale, 0.0))
     return np.asarray(colour.cctf_encoding(rgb, function="sRGB"), np.float64)

@@ -316,19 +316,6 @@ class _Interval:
         return self.m + 1 if self.m < MAX_GAUSS_NODES else None
 
 
-def _error(iv: _Interval, m: int, wl, w, g) -> float:
-    """Indicator: Σ over training functions of ∫_iv W |g − interpolant of g| on the 1 nm grid."""
-    sel = (wl >= iv.lo) & ((wl < iv.hi) | (iv.hi >= wl[-1]))
-    if not np.any(sel):
-        return 0.0
-    x = wl[sel]
-    nd = iv.nodes(m)
-    phi = _basis_at(iv.kind, nd, x)
-    gn = np.stack([np.interp(nd, wl, gi) for gi in g])
-    approx = gn @ phi
-    return float(np.sum(w[sel] * np.abs(g[:, sel] - approx)))
-
-
 def _spline(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Cubic-spline (not-a-knot) interpolation basis of ``nodes`` at ``x``, shape (m, len(x));
     constant beyond the end nodes. Reproduces constants (the basis sums to 1). Two nodes:

@@ -8,19 +8,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import central_difference
 
 from lumijax.optimise import DimmerLight, Objective
 from lumijax.optimise._models import build_aim_light
 from lumijax.optimise._targets import GridGoal
-
-
-def _fd(f, x, h=1e-6):
-    g = np.zeros_like(x)
-    for i in range(len(x)):
-        e = np.zeros_like(x)
-        e[i] = h
-        g[i] = (f(x + e) - f(x - e)) / (2 * h)
-    return g
 
 
 def _goals(n):
@@ -55,7 +47,7 @@ def test_dimmer_objective_gradient(term):
     value = float(f(x))
     assert value > 1e-6, f"term {term} is inactive at the test point: the check would be empty"
     g = np.asarray(jax.grad(f)(jnp.asarray(x)))
-    np.testing.assert_allclose(g, _fd(lambda y: float(f(y)), x), rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(g, central_difference(f, x), rtol=1e-5, atol=1e-9)
 
 
 AIM_TERMS = ["target", "min_lux", "uniformity_min", "max_lux", "max_luminance_cdm2",
@@ -89,11 +81,8 @@ def test_aim_objective_gradient(facade_results, aim_model):
     jac = np.asarray(jax.jacrev(f)(jnp.asarray(x0)))
     # small steps: the candela table is bilinear, so the slope jumps at its cells; a step of
     # 1e-5 rad already straddles one in this scene
-    h = 1e-6
-    for i in range(len(x0)):
-        e = np.zeros_like(x0)
-        e[i] = h
-        fd = (np.asarray(f(jnp.asarray(x0 + e))) - np.asarray(f(jnp.asarray(x0 - e)))) / (2 * h)
+    fds = central_difference(f, jnp.asarray(x0), h=1e-6)
+    for i, fd in enumerate(fds):
         err = np.abs(jac[:, i] - fd)
         ok = err <= 1e-5 * np.abs(fd) + 1e-8 * np.abs(jac).max(axis=1)
         assert ok.all(), (i, [(t, jac[j, i], fd[j]) for j, t in enumerate(AIM_TERMS)

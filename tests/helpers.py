@@ -1,0 +1,35 @@
+"""Test helpers shared across areas (importable as ``helpers``: tests/ is on pytest's path
+through tests/conftest.py)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = ["central_difference"]
+
+
+def central_difference(f: Callable, x, h: float = 1e-6,
+                       indices: Iterable[int] | None = None) -> np.ndarray:
+    """Central finite differences ``(f(x + h eₖ) − f(x − h eₖ)) / 2h`` of ``f`` at ``x``.
+
+    An independent check of automatic derivatives: it calls ``f`` only, never its gradient, so
+    it cannot share a bug with ``jax.grad``. ``x`` is perturbed along the flat indices
+    ``indices`` (all of them by default) and handed to ``f`` as the kind of array it came as
+    (a JAX array stays one). Returns float64 of shape ``(len(indices),) + shape of f(x)``, row
+    ``k`` the derivative along ``indices[k]``; truncation error O(h²·f'''), rounding error
+    O(ε·|f|/h).
+    """
+    as_jax = not isinstance(x, np.ndarray)
+    x = np.asarray(x, np.float64)
+    flat = range(x.size) if indices is None else list(indices)
+    rows = []
+    for k in flat:
+        e = np.zeros(x.size)
+        e[k] = h
+        e = e.reshape(x.shape)
+        hi, lo = (jnp.asarray(x + e) if as_jax else x + e), (jnp.asarray(x - e) if as_jax else x - e)
+        rows.append((np.asarray(f(hi), np.float64) - np.asarray(f(lo), np.float64)) / (2 * h))
+    return np.stack(rows)
