@@ -37,8 +37,13 @@ def read_csv(path: Path, kind: str) -> tuple[np.ndarray, np.ndarray, list[int]]:
             text = fh.read()
     except FileNotFoundError:
         raise SpectrumError("spectrum file not found", file=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpectrumError(f"cannot read spectrum file ({exc})", file=path) from None
+    except UnicodeDecodeError as exc:
+        # the decoder's message quotes the offending bytes; say where instead
+        raise SpectrumError(f"not UTF-8 text (byte {exc.start}): expected a CSV spectrum",
+                            file=path) from None
+    except OSError as exc:
+        raise SpectrumError(f"cannot read spectrum file ({exc.strerror or type(exc).__name__})",
+                            file=path) from None
 
     header: list[str] | None = None
     header_line = 0
@@ -64,10 +69,12 @@ def read_csv(path: Path, kind: str) -> tuple[np.ndarray, np.ndarray, list[int]]:
                 hint = ""
                 if other in header and value_col in missing:
                     hint = f" (column '{other}' is for a {'reflectance' if kind == 'emission' else 'emission'} spectrum)"
+                # The header's own text is not echoed: the path may name any file
+                # (docs/config.md, "Paths"); only the known column names are.
                 raise SpectrumError(
                     f"header lacks column(s) {', '.join(repr(c) for c in missing)}: "
                     f"expected {expected} for a{'n' if kind == 'emission' else ''} {kind} "
-                    f"spectrum, got {','.join(fields)!r}{hint}",
+                    f"spectrum{hint}",
                     file=path,
                     line=lineno,
                 )
@@ -86,7 +93,7 @@ def read_csv(path: Path, kind: str) -> tuple[np.ndarray, np.ndarray, list[int]]:
                 pair.append(float(fields[idx]))
             except ValueError:
                 raise SpectrumError(
-                    f"{col} {fields[idx]!r} is not a number", file=path, line=lineno
+                    f"column {col!r} (field {idx + 1}) is not a number", file=path, line=lineno
                 ) from None
         wl.append(pair[0])
         values.append(pair[1])
