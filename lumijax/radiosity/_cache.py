@@ -2,13 +2,17 @@
 
 The cache key (:func:`operator_key`) is a SHA-256 of everything that changes F: the patches'
 geometry and groups (so the triangles and the meshing settings), the occluding triangles, the
-partition and form-factor settings, the storage dtype and :data:`FORMAT`. Materials, reflectances,
-luminaires and dimmers are deliberately not in it: they do not change F.
+partition and form-factor settings, the storage dtype, :data:`FORMAT` and the code version (the
+lumijax version and a digest of the modules that compute F, so an edited build rebuilds even in
+an editable install). Materials, reflectances, luminaires and dimmers are deliberately not in it:
+they do not change F. Files are tagged with the user's cache secret and validated on load
+(``_store.py``); a file that fails is rebuilt with a warning, never trusted.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import warnings
@@ -16,15 +20,38 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import remove_orphans
+from .._version import __version__
 from ..errors import LumijaxWarning, OutputError
 from ..scene._raycast import RayCaster
 from ._build import FormFactorSettings, build_operator
 from ._operator import TransportOperator
 from ._partition import PartitionSettings, partition
 from ._patches import Patches
-from ._store import FORMAT, OperatorFileError, read_operator, write_operator
+from ._store import FORMAT, OperatorFileError, cache_secret, read_operator, write_operator
 
-__all__ = ["cache_path", "cached_operator", "operator_key"]
+__all__ = ["cache_path", "cached_operator", "code_version", "operator_key"]
+
+# The modules whose code decides the numbers in F (relative to the package): an edit to any of
+# them changes the key. Add a module here when it starts to take part in building F.
+_F_MODULES = (
+    "radiosity/_build.py", "radiosity/_hierarchy.py", "radiosity/_lowrank.py",
+    "radiosity/_operator.py", "radiosity/_partition.py", "radiosity/_store.py",
+    "kernels/_form_factors.py", "scene/_raycast.py",
+)
+
+
+@functools.cache
+def code_version() -> str:
+    """``"<lumijax version>+<SHA-256 of the F modules' source, 16 hex>"``: part of every key."""
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parents[1]
+    for rel in _F_MODULES:
+        try:
+            h.update(rel.encode() + b"\0" + (root / rel).read_bytes())
+        except OSError:  # a bytecode-only install: the version alone must do
+            h.update(rel.encode() + b"\0missing")
+    return f"{__version__}+{h.hexdigest()[:16]}"
 
 
 def _jsonable(x):
@@ -63,6 +90,7 @@ def operator_key(geometry, group=None, *, occluders=None, **settings) -> str:
     changes them must hit the cache.
     """
     h = hashlib.sha256(FORMAT.encode())
+    h.update(code_version().encode())
     if isinstance(geometry, Patches):
         for a in (geometry.vertices, geometry.normal, geometry.group):
             _hash_array(h, a)
@@ -96,9 +124,10 @@ def cached_operator(
 
     On a miss the partition (with its occlusion rays) and the operator are built and written
     atomically to ``cache_dir/transport-<key>.lmjop``; on a hit no ray is cast at all. A
-    corrupt or truncated file gives a :class:`~lumijax.errors.LumijaxWarning` ("cache file …
-    is corrupt; rebuilding") and is rebuilt and rewritten; a file of another format version is
-    rebuilt silently. A cache folder that cannot be written gives a warning, not an error.
+    corrupt, truncated, forged (not tagged with the user's secret) or invalid file gives a
+    :class:`~lumijax.errors.LumijaxWarning` ("cache file … is corrupt; rebuilding") and is
+    rebuilt and rewritten; a file of another format version is rebuilt silently. A cache folder
+    that cannot be written, or no usable cache secret, gives a warning, not an error.
 
     Parameters
     ----------
@@ -128,9 +157,20 @@ def cached_operator(
     key = operator_key(patches, occluders=occ, partition=ps, form_factors=settings,
                        dtype=np.dtype(dtype))
     path = cache_path(cache_dir, key)
-    if path.exists():
+    remove_orphans(cache_dir)  # temporaries of writers killed mid-write (the operator's size)
+    try:
+        secret = cache_secret()
+    except OutputError as e:
+        warnings.warn(f"no cache secret ({e}); the operator is built and not cached",
+                      LumijaxWarning, stacklevel=2)
+        secret = None
+    if secret is not None and (path.exists() or path.is_symlink()):
         try:
-            return read_operator(path, key=key), True
+            op = read_operator(path, key=key, secret=secret)
+            if op.n_patches != patches.n:
+                raise OperatorFileError(f"holds {op.n_patches} patches, the study has "
+                                        f"{patches.n}", file=path)
+            return op, True
         except OperatorFileError as e:
             if e.reason != "format":
                 warnings.warn(f"cache file {path} is corrupt ({e.message}); rebuilding",
@@ -139,8 +179,10 @@ def cached_operator(
         caster = RayCaster(occ)
     part = partition(patches, **dataclasses.asdict(ps), occluders=caster)
     op = build_operator(patches, part, caster, settings, dtype=dtype, occluder_triangles=occ)
+    if secret is None:
+        return op, False
     try:
-        write_operator(path, op, key=key)
+        write_operator(path, op, key=key, secret=secret)
     except OutputError as e:
         warnings.warn(f"cannot write cache file {path} ({e.message}); continuing without it",
                       LumijaxWarning, stacklevel=2)
