@@ -7,13 +7,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 
 import jax
 import numpy as np
 
 from .config import StudyConfig, load_config
+from .design import Design
 from .lighting import LightingSolution, SolverSettings, solve_lighting
 from .results import GridResult, Results
 from .scene import Scene, build_scene
@@ -32,6 +34,16 @@ class Study:
     @property
     def name(self) -> str:
         return self.scene.name
+
+    @property
+    def design(self) -> Design:
+        """The design the study is configured at (dimmers, aims, levels)."""
+        return Design.of(self.scene)
+
+    def with_design(self, design: Design) -> Study:
+        """The same study at another design (its config text is not rewritten: the config
+        stays the one loaded; ``scene`` is placed at ``design``)."""
+        return replace(self, scene=self.scene.with_design(design), load_s=0.0)
 
     def summary(self) -> dict:
         """What the study holds: counts, and each photometry's rated and integrated flux (lm)."""
@@ -82,11 +94,15 @@ def compute(
     indirect: bool | None = None,
     progress: Callable[[str, int, int], None] | None = None,
     cache_dir: str | Path | None = None,
+    design: Design | None = None,
 ) -> Results:
     """Light the study: direct and inter-reflected illuminance on every grid, per network.
 
     Parameters
     ----------
+    design
+        Light the study at this :class:`~lumijax.design.Design` instead of its config's
+        (``study.with_design``: no config text is written or parsed).
     shadows
         Cast shadow rays (default). ``False`` ignores every obstruction and inter-reflection:
         the luminaires' photometry alone.
@@ -98,6 +114,10 @@ def compute(
         Where to keep the transport operator between runs; default ``.lumijax-cache`` beside
         the config (when ``[solver] cache`` is true).
     """
+    recompute = partial(_at_design, study, shadows=shadows, indirect=indirect,
+                        cache_dir=cache_dir)
+    if design is not None:
+        study = study.with_design(design)
     sc = study.scene
     t0 = time.perf_counter()
     grids = sc.grids
@@ -123,7 +143,8 @@ def compute(
         lighting = _unshadowed(sc, points, normals, progress)
     total = lighting.point_total
     names = sc.network_names
-    dimmers = sc.dimmers
+    design = Design.of(sc)
+    dimmers = design.dimmers
     out: dict[str, GridResult] = {}
     start = 0
     for g in grids:
@@ -138,12 +159,12 @@ def compute(
     flux = sc.network_flux_lm()
     networks = {
         n.name: {
-            "dimmer": n.dimmer,
+            "dimmer": float(d),
             "luminaires": [lum.name for lum in sc.luminaires if lum.network == n.name]
             + [a.name for a in sc.area_sources if a.network == n.name],
             "flux_lm": flux[n.name],
         }
-        for n in sc.networks
+        for n, d in zip(sc.networks, design.dimmers, strict=True)
     }
     timing = {"load": study.load_s, **lighting.stats.get("timing_s", {}),
               "total": time.perf_counter() - t0}
@@ -157,8 +178,16 @@ def compute(
         solver["wavelengths_nm"] = [float(w) for w in lighting.spectral.sampling.wavelengths_nm]
     return Results(
         study=sc.name, grids=out, networks=networks, timing_s=timing, counts=counts,
-        solver=solver, lighting=lighting,
+        solver=solver, lighting=lighting, design=design, recompute=recompute,
     )
+
+
+def _at_design(study: Study, design: Design, *, shadows, indirect, cache_dir,
+               override_cache_dir=None) -> Results:
+    """``compute`` again with the options the results were computed with, at ``design``
+    (what ``Results.at`` calls when the design re-aims or re-levels a luminaire)."""
+    return compute(study, shadows=shadows, indirect=indirect, design=design,
+                   cache_dir=cache_dir if override_cache_dir is None else override_cache_dir)
 
 
 def _unshadowed(scene, points, normals, progress) -> LightingSolution:

@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..design import Design, traverse
 from ..errors import ConfigError, LumijaxError, OutputError
 from ..results import CRITERIA_SLACK, grid_stats
 from ._models import DimmerLight, build_aim_light
@@ -32,9 +33,12 @@ _MET_MAP = 0.05  # relative RMS deviation of a target map counted as met
 class Optimisation:
     """The outcome of :func:`optimise` (``results.json``'s ``"optimisation"``, docs/results.md).
 
-    ``results`` are the study's results at the optimised design (their ``optimisation`` is this
-    object); ``before``/``after`` hold each grid's statistics at the config's and at the
-    optimised design; ``targets`` one entry per goal with what was wanted and achieved.
+    ``design`` is the optimised :class:`~lumijax.design.Design` (``start`` the one the fit
+    started from) and ``results`` the study's results at it, ``results.design`` (their
+    ``optimisation`` is this object); ``aimed``/``levelled`` name the luminaires whose aims and
+    levels were variables. ``dimmers``, ``aims`` and ``levels`` are read from ``design``.
+    ``before``/``after`` hold each grid's statistics at the start and at the optimised
+    design; ``targets`` one entry per goal with what was wanted and achieved.
     """
 
     solver: str
@@ -42,9 +46,10 @@ class Optimisation:
     iterations: int
     converged: bool
     objective_history: list[float]
-    dimmers: dict[str, float]
-    aims: dict[str, dict[str, float]]
-    levels: dict[str, float]
+    design: Design
+    start: Design
+    aimed: tuple[str, ...]
+    levelled: tuple[str, ...]
     before: dict[str, dict[str, float]]
     after: dict[str, dict[str, float]]
     targets: list[dict[str, Any]]
@@ -52,6 +57,23 @@ class Optimisation:
     seconds: float = 0.0
     config: Any = field(default=None, repr=False)
     results: Any = field(default=None, repr=False)
+
+    @property
+    def dimmers(self) -> dict[str, float]:
+        """``{network: dimmer}`` of the optimised design."""
+        return self.design.dimmer_of()
+
+    @property
+    def aims(self) -> dict[str, dict[str, float]]:
+        """``{luminaire: {"tilt", "pan", "spin"}}`` (degrees, group frame) of the luminaires
+        whose aims were variables."""
+        return {n: self.design.aim_of(n) for n in self.aimed}
+
+    @property
+    def levels(self) -> dict[str, float]:
+        """``{luminaire: level}`` (a factor on its config multiplier) of the luminaires whose
+        levels were variables."""
+        return {n: self.design.level_of(n) for n in self.levelled}
 
     def to_dict(self) -> dict[str, Any]:
         out = {
@@ -71,7 +93,7 @@ class Optimisation:
         from ._toml import optimised_toml
 
         return optimised_toml(
-            self.config, dimmers=self.dimmers, aims=self.aims, levels=self.levels,
+            self.config, self.design, aimed=self.aimed, levelled=self.levelled,
             base_dir=None if base_dir is None else Path(base_dir).resolve(),
             note=f"optimised by lumijax ({self.solver}, {self.iterations} steps); goals "
                  f"{'all met' if not self.unmet else 'not all met: ' + '; '.join(self.unmet)}",
@@ -157,7 +179,6 @@ def optimise(study, results, *, cache_dir: str | Path | None = None, **overrides
                           file=cfg.source, key="optimise")
     jax.config.update("jax_enable_x64", True)  # the fit runs in float64 (docs/optimise.md)
     names = sc.network_names
-    k = len(names)
     flux = sc.network_flux_lm()
     power = np.array([
         cfg.networks[n].power_w if n in cfg.networks and cfg.networks[n].power_w is not None
@@ -166,67 +187,60 @@ def optimise(study, results, *, cache_dir: str | Path | None = None, **overrides
                                 constraint_weight=ocfg.constraint_weight,
                                 patch_max_luminance=ocfg.max_luminance_cdm2)
 
-    lo = [ocfg.dimmer_min] * k
-    hi = [1.0] * k
-    x0 = list(np.clip(sc.dimmers, ocfg.dimmer_min, 1.0))
+    # the fit starts at the study's dimmers, and at the aims and levels the light was computed
+    # at (where the aim model is exact)
+    start = results.design.replace(dimmers=study.design.dimmers)
     aims_on, levels_on = "aims" in ocfg.variables, "levels" in ocfg.variables
     variable: list[int] = []
+    ranges = []
     if aims_on or levels_on:
-        spans = []
         for i, lum in enumerate(sc.luminaires):
             (t_lo, t_hi), (p_lo, p_hi) = _aim_range(cfg, cfg.luminaires[lum.config_index], ocfg)
             moving = aims_on and (t_lo != t_hi or p_lo != p_hi or t_lo != 0 or p_lo != 0)
             if moving or levels_on:
                 variable.append(i)
-                spans.append((t_lo, t_hi, p_lo, p_hi) if aims_on else (0, 0, 0, 0))
-        spans = np.radians(np.array(spans, np.float64).reshape(-1, 4))
+                ranges.append(((t_lo, t_hi), (p_lo, p_hi)) if aims_on else ((0, 0), (0, 0)))
+        if not variable:  # the aim model of no luminaire is an empty, singular solve
+            raise ConfigError(
+                "'aims'/'levels' need a photometric luminaire free to move: the study has none"
+                if not sc.luminaires else "every aim range is zero: no luminaire can turn",
+                file=cfg.source, key="optimise.variables")
+    params = traverse(start, ocfg.variables, luminaires=variable,
+                      dimmer_bounds=(ocfg.dimmer_min, 1.0), aim_bounds_deg=ranges,
+                      level_bounds=(ocfg.dimmer_min, 1.0))
+    if aims_on or levels_on:
+        spans = np.radians(np.array(ranges, np.float64).reshape(-1, 4))
         model = build_aim_light(
             lighting, variable, np.abs(spans[:, :2]).max(axis=1, initial=0.0),
             np.abs(spans[:, 2:]).max(axis=1, initial=0.0), aims=aims_on, levels=levels_on,
             indirect=ocfg.indirect,
         )
-        if aims_on:
-            t0r, p0r = np.asarray(model.tilt0), np.asarray(model.pan0)
-            x0 += list(t0r) + list(p0r)
-            lo += list(t0r + spans[:, 0]) + list(p0r + spans[:, 2])
-            hi += list(t0r + spans[:, 1]) + list(p0r + spans[:, 3])
-        if levels_on:
-            x0 += [1.0] * len(variable)
-            lo += [ocfg.dimmer_min] * len(variable)
-            hi += [1.0] * len(variable)
     else:
         rad = None if lighting.patches is None or not lighting.radiosity.size else (
             jnp.asarray(lighting.radiosity, jnp.float64))
         model = DimmerLight(jnp.asarray(lighting.point_total, jnp.float64), rad)
-    if "dimmers" not in ocfg.variables:
-        lo[:k] = hi[:k] = x0[:k]
 
     solver = "lbfgsb" if ocfg.solver == "auto" else ocfg.solver
-    run = minimise(_residuals, (model, objective), np.array(x0), np.array(lo), np.array(hi),
+    run = minimise(_residuals, (model, objective), params.x0, params.lower, params.upper,
                    solver=solver, max_steps=ocfg.max_steps, tolerance=ocfg.tolerance)
-    x = run.x
-    dimmers = {n: float(x[i]) for i, n in enumerate(names)}
-    aims: dict[str, dict[str, float]] = {}
-    levels: dict[str, float] = {}
-    if variable:
-        v = len(variable)
-        j = k
-        for m, i in enumerate(variable):
-            lum = sc.luminaires[i]
-            if aims_on:
-                aims[lum.name] = {"tilt": float(np.degrees(x[j + m])),
-                                  "pan": float(np.degrees(x[j + v + m])), "spin": lum.spin}
-            if levels_on:
-                levels[lum.name] = float(x[j + (2 * v if aims_on else 0) + m])
-
+    design = params.unflatten(np.asarray(run.x, np.float64))
+    names_of = [sc.luminaires[i].name for i in variable]
     opt = Optimisation(
         solver=solver, variables=tuple(ocfg.variables), iterations=run.iterations,
-        converged=run.converged, objective_history=run.history, dimmers=dimmers, aims=aims,
-        levels=levels, before={n: g.stats for n, g in results.grids.items()}, after={},
+        converged=run.converged, objective_history=run.history, design=design, start=start,
+        aimed=tuple(names_of) if aims_on else (), levelled=tuple(names_of) if levels_on else (),
+        before={n: g.stats for n, g in results.grids.items()}, after={},
         targets=[], unmet=[], config=cfg,
     )
-    after = _final_results(study, results, opt, cache_dir)
-    assessed, unmet = _assess(goals, after, ocfg, dimmers)
+    # exact: superposition where only dimmers moved, else the study computed at the design
+    # (scene.with_design, the operator from the cache); no config text is written or parsed
+    if results.design.only_dimmers_differ(design):
+        after = results.at(design)
+    else:
+        from .._study import compute
+
+        after = compute(study, design=design, cache_dir=cache_dir)
+    assessed, unmet = _assess(goals, after, ocfg, opt.dimmers)
     opt = dataclasses.replace(
         opt, after={n: g.stats for n, g in after.grids.items()}, targets=assessed, unmet=unmet,
         seconds=time.perf_counter() - t0,
@@ -240,32 +254,6 @@ def _residuals(x, args):
     model, objective = args
     e, b, alpha = model(x)
     return objective.residuals(e, b, alpha)
-
-
-def _final_results(study, results, opt: Optimisation, cache_dir):
-    """The results at the optimised design: by superposition for dimmers alone, otherwise a
-    full re-computation of the optimised config (exact; the operator comes from the cache)."""
-    names = study.scene.network_names
-    alpha = np.array([opt.dimmers[n] for n in names])
-    if not opt.aims and not opt.levels:
-        grids = {n: dataclasses.replace(g, dimmers=alpha) for n, g in results.grids.items()}
-        networks = {n: {**v, "dimmer": opt.dimmers[n]} for n, v in results.networks.items()}
-        lighting = results.lighting
-        if lighting is not None:
-            scene = dataclasses.replace(lighting.scene, networks=tuple(
-                dataclasses.replace(nw, dimmer=opt.dimmers[nw.name])
-                for nw in lighting.scene.networks))
-            lighting = dataclasses.replace(lighting, scene=scene)
-        return dataclasses.replace(results, grids=grids, networks=networks, lighting=lighting)
-    from .._study import Study, compute
-    from ..config import parse_config
-    from ..scene import build_scene
-
-    cfg = study.config
-    text = opt.config_text(None if cfg.source is None else cfg.source.parent)
-    new_cfg = parse_config(text, source=cfg.source)
-    new = Study(new_cfg, build_scene(new_cfg))
-    return compute(new, cache_dir=cache_dir)
 
 
 def _assess(goals, results, ocfg, dimmers) -> tuple[list[dict], list[str]]:
@@ -317,7 +305,7 @@ def _assess(goals, results, ocfg, dimmers) -> tuple[list[dict], list[str]]:
                 f"{lmax:.4g} cd/m² (over by {100 * (lmax / g.max_luminance_cdm2 - 1):.0f} %)")
     lighting = results.lighting
     if ocfg.max_luminance_cdm2 is not None and lighting is not None and lighting.radiosity.size:
-        alpha = np.array([dimmers[n] for n in lighting.scene.network_names])
+        alpha = np.asarray(results.design.dimmers)
         lmax = float(np.max(alpha @ lighting.radiosity)) / np.pi
         add("patches", "max_luminance_cdm2", ocfg.max_luminance_cdm2, lmax,
             lmax <= ocfg.max_luminance_cdm2 * (1 + _MET),

@@ -1,5 +1,7 @@
 """Write the optimised study back as TOML: the designer's own file, comments kept, with the new
-dimmers, aims and levels, and relative paths re-anchored at the new file's folder."""
+dimmers, aims and levels of a :class:`~lumijax.design.Design`, and relative paths re-anchored
+at the new file's folder. Output for the designer only: lumijax never parses it back to get
+results (``results.at(design)`` lights the design directly)."""
 
 from __future__ import annotations
 
@@ -27,17 +29,21 @@ def _rel(path: Path, base: Path | None) -> str:
         return str(path)
 
 
-def optimised_toml(cfg, *, dimmers: dict[str, float], aims: dict[str, dict],
-                   levels: dict[str, float], base_dir: Path | None, note: str = "") -> str:
-    """The config text with the optimised values.
+def optimised_toml(cfg, design, *, aimed=(), levelled=(), base_dir: Path | None,
+                   note: str = "") -> str:
+    """The config text at ``design``.
 
-    ``aims`` maps luminaire names to ``{"tilt", "pan", "spin"}`` in degrees, in the luminaire's
-    group frame (an ``aim_at`` is replaced by the aim it stood for). ``levels`` multiply each
-    luminaire's ``multiplier``. ``base_dir`` is the folder the text will live in: file paths
-    are rewritten relative to it (None: absolute paths).
+    Every network's dimmer is written (6 decimals); the aims of the luminaires named in
+    ``aimed`` as ``{tilt, pan, spin}`` in degrees, in the luminaire's group frame (4 decimals;
+    an ``aim_at`` is replaced by the aim it stood for); for those in ``levelled`` the
+    ``multiplier`` times the design's level (6 decimals). ``base_dir`` is the folder the text
+    will live in: file paths are rewritten relative to it (None: absolute paths).
     """
     import tomlkit
 
+    dimmers = design.dimmer_of()
+    aims = {n: design.aim_of(n) for n in aimed}
+    levels = {n: design.level_of(n) for n in levelled}
     doc = tomlkit.parse(_source_text(cfg))
     if dimmers:
         if "networks" not in doc:

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._atomic import atomic_path
+from ..design import Design
 from ..errors import LumijaxError, OutputError
 from ..results import CRITERIA_SLACK
 
@@ -113,8 +114,9 @@ def _optimisation_section(opt: dict, study, results) -> dict[str, Any]:
             for label, k, unit in (("Eavg", "avg", "lx"), ("Emin", "min", "lx"),
                                    ("Emax", "max", "lx"), ("U0", "u0", ""), ("Ud", "ud", ""))
             if k in b or k in a]})
-    start = {n.name: n.dimmer for n in study.scene.networks}
-    dimmers = [{"name": k, "before": _fmt(start.get(k)), "after": _fmt(v)}
+    start = study.design.dimmer_of()  # the config's: where the fit started
+    after_dimmers = results.design.dimmer_of()
+    dimmers = [{"name": k, "before": _fmt(start.get(k)), "after": _fmt(after_dimmers.get(k, v))}
                for k, v in (opt.get("dimmers") or {}).items()]
     aims = [{"name": k, **{a: _fmt(v.get(a)) for a in ("tilt", "pan", "spin")}}
             for k, v in (opt.get("aims") or {}).items()]
@@ -148,8 +150,10 @@ def _pictures(study, results, cameras, timings) -> tuple[list, list]:
     t0 = time.perf_counter()
     need_e = any(c.kind == "falsecolour" and c.quantity == "illuminance" for c in cams)
     surface = surface_light(results, illuminance=need_e)
-    dimmers = np.asarray(next(iter(results.grids.values())).dimmers, np.float64) if (
-        results.grids) else study.scene.dimmers
+    dimmers = np.asarray(results.design.dimmers, np.float64)
+    scene = study.scene
+    if results.design.same_study(Design.of(scene)):  # the fittings drawn as designed
+        scene = scene.with_design(results.design)
     timings["surfaces"] = time.perf_counter() - t0
     auto = len(cams) == 1 and cams[0].name == "overview" and not getattr(
         study.config, "cameras", None)
@@ -158,7 +162,7 @@ def _pictures(study, results, cameras, timings) -> tuple[list, list]:
         kinds = ["realistic", "falsecolour"] if auto else [cam.kind]
         for kind in kinds:
             if kind == "realistic":
-                img, ev = render_realistic(surface, cam, dimmers, study.scene)
+                img, ev = render_realistic(surface, cam, dimmers, scene)
                 caption = (f"Realistic view “{cam.name}”: {cam.fov_deg:g}° field of view, "
                            f"exposure EV {ev:.1f} (ISO 100"
                            f"{', metered' if cam.exposure_ev is None else ''}), "
@@ -230,8 +234,9 @@ def report_context(study, results, *, cameras=None, pictures: bool = True,
             "raw": s,
         })
     networks, total_flux, total_power, any_power = [], 0.0, 0.0, False
+    design_dimmers = results.design.dimmer_of()
     for name, n in results.networks.items():
-        dimmer = float(n["dimmer"])
+        dimmer = design_dimmers[name]
         cfg = ncfg.get(name)
         power_w = getattr(cfg, "power_w", None) if cfg is not None else None
         any_power |= power_w is not None

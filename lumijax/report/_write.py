@@ -91,7 +91,7 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
         if lighting is not None and lighting.patches is not None:
             from ._vtk import write_patches_vtp
 
-            write_patches_vtp(lighting, lighting.scene.dimmers, staging / "patches.vtp")
+            write_patches_vtp(lighting, results.design.dimmers, staging / "patches.vtp")
             written["patches.vtp"] = Path("patches.vtp")
         final: dict[str, Path] = {}
         mode = file_mode()

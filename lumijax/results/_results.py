@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -14,6 +16,42 @@ __all__ = ["GridResult", "Results", "grid_stats", "CRITERIA_SLACK"]
 #: maximum, a uniformity) and still meet it: the accuracy a fitted design is held to. The
 #: report, the command line and the optimiser all judge with it.
 CRITERIA_SLACK = 0.02
+
+
+def _finite_json(value, key: str):
+    """``value`` unchanged when every number in it is finite, else a SolveError naming ``key``:
+    results.json never holds NaN or Infinity (docs/results.md), and a non-finite number there
+    means the computation overflowed, which no null could honestly stand for."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _finite_json(v, f"{key}.{k}")
+    elif isinstance(value, list | tuple):
+        arr = np.asarray(value, dtype=object if not value or not _flat(value) else np.float64)
+        if arr.dtype == object:
+            for i, v in enumerate(value):
+                _finite_json(v, f"{key}[{i}]")
+        else:
+            _check_array(arr, key)
+    elif isinstance(value, float | np.floating) and not np.isfinite(value):
+        _check_array(np.asarray([value], np.float64), key)
+    return value
+
+
+def _flat(values) -> bool:
+    return all(isinstance(v, int | float | np.number) and not isinstance(v, bool) for v in values)
+
+
+def _check_array(arr: np.ndarray, key: str) -> None:
+    bad = ~np.isfinite(np.asarray(arr, np.float64))
+    if bad.any():
+        from ..errors import SolveError
+
+        first = np.unravel_index(int(np.argmax(bad)), bad.shape)
+        raise SolveError(
+            f"{int(bad.sum())} of {bad.size} values are not finite (the first, at index "
+            f"{list(map(int, first))}, is {float(np.asarray(arr, np.float64)[first])}): the "
+            "computation overflowed; check the study's magnitudes (flux_lm, multiplier, targets)",
+            key=f"results.json: {key}")
 
 
 def grid_stats(lux: Float[np.ndarray, " points"]) -> dict[str, float]:
@@ -35,7 +73,9 @@ class GridResult:
     """Illuminance on one calculation grid.
 
     ``by_network_lux[k]`` is network k's illuminance at dimmer 1 (lx); light adds linearly, so
-    the illuminance at any dimmer setting α is ``α @ by_network_lux`` exactly.
+    the illuminance at any dimmer setting α is ``α @ by_network_lux`` exactly. Inside
+    :class:`Results`, ``dimmers`` is a read-only view of the results' ``design.dimmers``
+    (the one copy), never a dimmer vector of its own.
     """
 
     name: str
@@ -79,6 +119,12 @@ class GridResult:
         return grid_stats(self.illuminance_lux)
 
     def to_dict(self) -> dict[str, Any]:
+        """The grid's entry of results.json; a SolveError names any non-finite array."""
+        for name, arr in (("points", self.points), ("by_network_lux", self.by_network_lux),
+                          ("direct_lux", self.direct_by_network_lux),
+                          ("xyz", self.xyz_by_network)):
+            if arr is not None:
+                _check_array(arr, f"grids.{self.name}.{name}")
         out: dict[str, Any] = {
             "points": self.points.tolist(),
             "normals": self.normals.tolist(),
@@ -95,7 +141,9 @@ class GridResult:
             from ..spectral import cct_from_xyz
 
             out["xyz"] = xyz.tolist()
-            out["cct_k"] = np.asarray(cct_from_xyz(xyz)).tolist()
+            cct = np.asarray(cct_from_xyz(xyz))
+            _check_array(cct, f"grids.{self.name}.cct_k")
+            out["cct_k"] = cct.tolist()
         if self.shape is not None:
             out["shape"] = list(self.shape)
         if self.target_lux is not None:
@@ -105,7 +153,13 @@ class GridResult:
 
 @dataclass(frozen=True, eq=False)
 class Results:
-    """Everything a study computed, ready to inspect as arrays or to write (see ``write_results``)."""
+    """Everything a study computed, ready to inspect as arrays or to write (see ``write_results``).
+
+    ``design`` (a :class:`lumijax.design.Design`) is the one record of the dimmers, aims and
+    levels the results are lit at: every grid's ``dimmers`` and every ``networks[n]["dimmer"]``
+    are read from it when the results are made, and the report, the viewer and the writers
+    read it. ``at(design)`` gives the results at another design.
+    """
 
     study: str
     grids: dict[str, GridResult]
@@ -115,6 +169,58 @@ class Results:
     solver: dict[str, Any] = field(default_factory=dict)
     lighting: Any = field(default=None, repr=False)
     optimisation: Any = field(default=None, repr=False)  # lumijax.optimise.Optimisation
+    design: Any = field(default=None, repr=False)  # lumijax.design.Design
+    #: ``recompute(design, override_cache_dir=None) -> Results``: the study computed again at a
+    #: design, with the options these results were computed with (set by ``lumijax.compute``).
+    recompute: Callable[..., Results] | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        design = self.design
+        if design is None:  # made by hand: the dimmers the networks were given, no luminaires
+            from ..design import Design
+
+            design = Design([v["dimmer"] for v in self.networks.values()], [], [], [], [],
+                            networks=tuple(self.networks), luminaires=())
+            object.__setattr__(self, "design", design)
+        if tuple(self.networks) != design.networks:
+            raise ValueError(f"the design's networks {design.networks} are not the results' "
+                             f"{tuple(self.networks)}")
+        dimmers = np.asarray(design.dimmers)
+        object.__setattr__(self, "grids", {
+            n: g if g.dimmers is dimmers else dataclasses.replace(g, dimmers=dimmers)
+            for n, g in self.grids.items()})
+        object.__setattr__(self, "networks", {
+            n: {"dimmer": float(d), **{k: v for k, v in info.items() if k != "dimmer"}}
+            for (n, info), d in zip(self.networks.items(), dimmers, strict=True)})
+
+    def at(self, design, *, cache_dir=None) -> Results:
+        """The results at another design of the same study.
+
+        Where only dimmers differ this is the exact superposition of the per-network light at
+        dimmer 1 (no solve, no ray; the lighting solution's scene is placed at ``design`` too).
+        A design that re-aims or re-levels a luminaire is computed again in full
+        (``lumijax.compute(study, design=design)``, with these results' options; the transport
+        operator comes from the cache when one is kept, or from ``cache_dir``). The
+        optimisation record, which described the old design, is not carried over.
+        """
+        from ..errors import LumijaxError
+
+        if not self.design.same_study(design):
+            raise LumijaxError("the design names other networks or luminaires than these "
+                               f"results (networks: {', '.join(self.design.networks)})",
+                               key="design")
+        if self.design.only_dimmers_differ(design):
+            lighting = self.lighting
+            if lighting is not None and getattr(lighting, "scene", None) is not None:
+                lighting = dataclasses.replace(lighting,
+                                               scene=lighting.scene.with_design(design))
+            return dataclasses.replace(self, design=design, lighting=lighting,
+                                       optimisation=None)
+        if self.recompute is None:
+            raise LumijaxError("these results cannot be lit at a design that re-aims or "
+                               "re-levels a luminaire: they were not made by lumijax.compute, "
+                               "which keeps the study to compute again", key="design")
+        return self.recompute(design, override_cache_dir=cache_dir)
 
     def __getitem__(self, grid: str) -> GridResult:
         return self.grids[grid]
@@ -126,10 +232,10 @@ class Results:
             "study": self.study,
             "lumijax_version": __version__,
             "grids": {name: g.to_dict() for name, g in self.grids.items()},
-            "networks": self.networks,
+            "networks": _finite_json(self.networks, "networks"),
             "timing_s": self.timing_s,
             "counts": self.counts,
-            "solver": self.solver,
-            **({"optimisation": self.optimisation.to_dict()}
+            "solver": _finite_json(self.solver, "solver"),
+            **({"optimisation": _finite_json(self.optimisation.to_dict(), "optimisation")}
                if self.optimisation is not None else {}),
         }

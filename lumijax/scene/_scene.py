@@ -7,8 +7,10 @@ from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+from jaxtyping import Float
 
 from ..config import StudyConfig
+from ..config._schema import MAX_GRID_POINTS, grid_count
 from ..errors import ConfigError, GeometryError, LumijaxError
 from ._elements import AreaSource, Grid, Luminaire, Material, Network, plane_grid_points
 from ._frames import Frame, aim_angles_towards, resolve_group_frames
@@ -39,6 +41,11 @@ class Scene:
     area_sources: tuple[AreaSource, ...]
     networks: tuple[Network, ...]
     grids: tuple[Grid, ...]
+    #: Each luminaire's level, a factor on its config multiplier (None: all 1, as configured).
+    levels: Float[np.ndarray, " lum"] | None = None
+    #: Each luminaire's multiplier × maintenance factor: its ``scale`` before level and TILT
+    #: factor, so that a re-aimed or re-levelled luminaire's scale is rebuilt, not divided out.
+    rated_scales: Float[np.ndarray, " lum"] | None = None
 
     @cached_property
     def raycaster(self) -> RayCaster:
@@ -52,6 +59,41 @@ class Scene:
     @property
     def dimmers(self) -> np.ndarray:
         return np.array([n.dimmer for n in self.networks])
+
+    def with_design(self, design) -> Scene:
+        """This scene at another :class:`lumijax.design.Design`: the networks at its dimmers,
+        the luminaires at its aims (degrees) and levels. No config text in between; geometry,
+        materials and grids are shared (and the ray caster, once built). An LM-63 TILT factor
+        follows the new aim, as when the scene is built."""
+        if design.networks != self.network_names or design.luminaires != tuple(
+                lum.name for lum in self.luminaires):
+            raise ConfigError("the design names other networks or luminaires than the scene "
+                              f"{self.name!r} (networks: {', '.join(self.network_names)})",
+                              file=self.source, key="design")
+        networks = tuple(replace(nw, dimmer=float(d))
+                         for nw, d in zip(self.networks, design.dimmers, strict=True))
+        old_levels = np.ones(len(self.luminaires)) if self.levels is None else self.levels
+        lums = []
+        for i, lum in enumerate(self.luminaires):
+            aim = (float(design.tilt_deg[i]), float(design.pan_deg[i]),
+                   float(design.spin_deg[i]))
+            level = float(design.level[i])
+            if aim == (lum.tilt, lum.pan, lum.spin) and level == old_levels[i]:
+                lums.append(lum)
+                continue
+            phot = self.photometries[lum.photometry]
+            if self.rated_scales is not None:
+                rated = float(self.rated_scales[i])
+            else:  # a scene built by hand: divide out what build_scene multiplied in
+                rated = lum.scale / (old_levels[i] * _tilt_factor(lum, phot))
+            moved = replace(lum, tilt=aim[0], pan=aim[1], spin=aim[2])
+            lums.append(replace(moved, scale=rated * level * _tilt_factor(moved, phot)))
+        levels = np.array(design.level, np.float64)
+        levels.flags.writeable = False
+        new = replace(self, networks=networks, luminaires=tuple(lums), levels=levels)
+        if "raycaster" in self.__dict__:  # same triangles: keep the Embree scene
+            new.__dict__["raycaster"] = self.__dict__["raycaster"]
+        return new
 
     def grid(self, name: str) -> Grid:
         for g in self.grids:
@@ -181,10 +223,8 @@ def build_scene(cfg: StudyConfig) -> Scene:
             spin=spin, network=lum.network, scale=lum.multiplier * lum.maintenance_factor,
             frame_rotation=rot, spectrum=spectrum, config_index=i,
         )
-        phot = photometries[lum.photometry]
-        if phot.tilt is not None:  # LM-63 TILT: the lamp's output depends on its real tilt
-            world_tilt = float(np.degrees(np.arccos(np.clip(-placed.axis[2], -1.0, 1.0))))
-            placed = replace(placed, scale=placed.scale * float(phot.tilt.factor(world_tilt)))
+        placed = replace(placed, scale=placed.scale * _tilt_factor(placed,
+                                                                   photometries[lum.photometry]))
         luminaires.append(placed)
 
     grids = tuple(_grid(g, frame_of(g.group), src, f"grids[{i}]") for i, g in enumerate(cfg.grids))
@@ -193,9 +233,20 @@ def build_scene(cfg: StudyConfig) -> Scene:
         name=cfg.study.name, source=src, triangles=triangles, materials=materials,
         groups=group_names, photometries=photometries, luminaires=tuple(luminaires),
         area_sources=tuple(areas), networks=networks, grids=grids,
+        rated_scales=np.array([lum.multiplier * lum.maintenance_factor for lum in cfg.luminaires
+                               if lum.kind != "area"], np.float64),
     )
     _check_luminaires_outside_solids(scene, cfg, src)
     return scene
+
+
+def _tilt_factor(lum: Luminaire, phot) -> float:
+    """LM-63 TILT: the lamp's output depends on its real tilt from straight down (1 without
+    a TILT table)."""
+    if phot.tilt is None:
+        return 1.0
+    world_tilt = float(np.degrees(np.arccos(np.clip(-lum.axis[2], -1.0, 1.0))))
+    return float(phot.tilt.factor(world_tilt))
 
 
 def _material(name: str, m, src) -> Material:
@@ -246,14 +297,15 @@ def _grid(g, frame: Frame, src, key: str) -> Grid:
     if np.linalg.norm(cross) <= 1e-12:
         raise ConfigError("'u' and 'v' are parallel or zero: the grid has no area",
                           file=src, key=key)
-    if g.spacing is not None:
-        nu = max(1, int(round(np.linalg.norm(u) / g.spacing)))
-        nv = max(1, int(round(np.linalg.norm(v) / g.spacing)))
+    if g.spacing is not None:  # in world metres: a group's scale changes the count
+        fu, fv = (grid_count(float(np.linalg.norm(e)), g.spacing) for e in (u, v))
     else:
-        nu, nv = g.nu, g.nv
-    if nu * nv > 10_000_000:
-        raise ConfigError(f"{nu} × {nv} points is more than 10⁷; use a coarser spacing",
-                          file=src, key=key)
+        fu, fv = float(g.nu), float(g.nv)
+    if not fu * fv <= MAX_GRID_POINTS:
+        raise ConfigError(f"about {fu * fv:.3g} points, more than the {MAX_GRID_POINTS:.0e} a grid "
+                          "may have; use a coarser 'spacing' (m) or smaller 'nu'/'nv'",
+                          file=src, key=f"{key}.spacing" if g.spacing is not None else key)
+    nu, nv = int(fu), int(fv)
     origin = frame.points(g.origin)
     if g.normal is not None:
         if np.linalg.norm(g.normal) == 0:

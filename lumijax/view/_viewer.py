@@ -149,8 +149,7 @@ def build_viewer(study, results, *, off_screen: bool = False, window_size=(1280,
     cam = camera or cameras_of(study)[0]
     cam = cam.replace(size=tuple(window_size))
     surface = surface_light(results)
-    grids = list(results.grids.values())
-    dimmers = grids[0].dimmers if grids else study.scene.dimmers
+    dimmers = results.design.dimmers  # the one record of the design the results are lit at
     pl = pv.Plotter(off_screen=off_screen, window_size=list(window_size),
                     title=f"lumijax — {results.study}")
     viewer = DimmerViewer(study, surface, pl, cam, dimmers, tone=cam.tone,
