@@ -13,7 +13,9 @@ patch ``P`` whose value is zero.
 
 from __future__ import annotations
 
+import abc
 import json
+from typing import TYPE_CHECKING, ClassVar
 
 import equinox as eqx
 import jax
@@ -23,6 +25,8 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 __all__ = [
+    "AbstractBucket",
+    "DenseBucket",
     "Bucket",
     "LowRankBucket",
     "Info",
@@ -31,7 +35,51 @@ __all__ = [
 ]
 
 
-class Bucket(eqx.Module):
+class AbstractBucket(eqx.Module):
+    """Stacked blocks of ``G = A F`` (m²) of one padded shape, and how to apply them.
+
+    ``recv[k]``/``src[k]`` are the receiving and sending patches of pair k (padding: the zero
+    patch P), ``recv_block``/``src_block`` their blocks (−1 where a side spans several), and
+    ``chunk`` the pairs one step of the product's ``lax.scan`` takes. ``kind`` names the
+    storage in the operator file (radiosity/_store.py).
+    """
+
+    kind: eqx.AbstractClassVar[str]
+    if TYPE_CHECKING:  # every final bucket has these; declared here for type checkers only,
+        # since an annotation in an equinox Module's body would make it a (leading) field
+        recv: Int[Array, "n sa"]
+        src: Int[Array, "n sb"]
+        recv_block: Int[Array, " n"]
+        src_block: Int[Array, " n"]
+        chunk: int
+        diagonal: bool
+
+    @abc.abstractmethod
+    def apply(self, xext: Array, out: Array, only_block=None, block_of=None) -> Array:
+        """``out += G_bucket @ xext`` (both directions for off-diagonal pairs).
+
+        ``xext``: the vector with the zero padding patch appended. With ``only_block``, chunks
+        with no pair touching that block are skipped (``lax.cond``): the product with a vector
+        zero outside the block, at the cost of its pairs only; ``block_of`` is each patch's
+        block, −1 for the padding patch.
+        """
+
+    @abc.abstractmethod
+    def todense(self) -> np.ndarray:
+        """The stacked blocks ``G[recv[k]][:, src[k]]`` as float64, shape ``(n, sa, sb)``."""
+
+    @property
+    @abc.abstractmethod
+    def data_nbytes(self) -> int:
+        """Bytes of the stored values (blocks or factors), padding included."""
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the stored values and their index arrays (padding included)."""
+        return int(self.data_nbytes + self.recv.nbytes + self.src.nbytes)
+
+
+class DenseBucket(AbstractBucket):
     """Stacked dense blocks of ``G = A F`` with one padded shape.
 
     ``blocks[k]`` holds ``G[recv[k]][:, src[k]]``; ``diagonal`` buckets hold full symmetric
@@ -45,9 +93,48 @@ class Bucket(eqx.Module):
     src_block: Int[Array, " n"]
     diagonal: bool = eqx.field(static=True)
     chunk: int = eqx.field(static=True)
+    kind: ClassVar[str] = "dense"
+
+    def apply(self, xext, out, only_block=None, block_of=None):
+        n, sa, sb = self.blocks.shape
+        steps = n // self.chunk
+        d = self.blocks.reshape(steps, self.chunk, sa, sb)
+        r = self.recv.reshape(steps, self.chunk, sa)
+        s = self.src.reshape(steps, self.chunk, sb)
+        rb = self.recv_block.reshape(steps, self.chunk)
+        sbk = self.src_block.reshape(steps, self.chunk)
+
+        def compute(acc, dk, rk, sk):
+            dk = dk.astype(xext.dtype)  # float32 storage, computed in the solve's precision
+            acc = acc.at[rk].add(jnp.einsum("nij,njc->nic", dk, xext[sk]))
+            if not self.diagonal:
+                acc = acc.at[sk].add(jnp.einsum("nij,nic->njc", dk, xext[rk]))
+            return acc
+
+        def body(acc, xs):
+            dk, rk, sk, rbk, sbkk = xs
+            if only_block is None:
+                return compute(acc, dk, rk, sk), None
+            touches = jnp.any((rbk == only_block) | (sbkk == only_block))
+            acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, dk, rk, sk)
+            return acc, None
+
+        out, _ = jax.lax.scan(body, out, (d, r, s, rb, sbk))
+        return out
+
+    def todense(self):
+        return np.asarray(self.blocks, np.float64)
+
+    @property
+    def data_nbytes(self):
+        return int(self.blocks.nbytes)
 
 
-class LowRankBucket(eqx.Module):
+#: The dense bucket under its former name.
+Bucket = DenseBucket
+
+
+class LowRankBucket(AbstractBucket):
     """Stacked low-rank blocks ``G[recv[k]][:, src[k]] ≈ u[k] @ v[k].T`` of one padded shape.
 
     Well-separated pairs of clusters of blocks (used in both directions: the transposed block
@@ -63,8 +150,44 @@ class LowRankBucket(eqx.Module):
     recv_block: Int[Array, " n"]
     src_block: Int[Array, " n"]
     chunk: int = eqx.field(static=True)
+    # never a diagonal block (a block is not well separated from itself)
+    diagonal: ClassVar[bool] = False  # type: ignore[misc]
+    kind: ClassVar[str] = "lowrank"
 
-    diagonal = False  # never a diagonal block (a block is not well separated from itself)
+    def apply(self, xext, out, only_block=None, block_of=None):
+        n, sa, r = self.u.shape
+        sb = self.v.shape[1]
+        steps = n // self.chunk
+        u = self.u.reshape(steps, self.chunk, sa, r)
+        v = self.v.reshape(steps, self.chunk, sb, r)
+        rr = self.recv.reshape(steps, self.chunk, sa)
+        ss = self.src.reshape(steps, self.chunk, sb)
+
+        def compute(acc, uk, vk, rk, sk):
+            uk, vk = uk.astype(xext.dtype), vk.astype(xext.dtype)
+            t = jnp.einsum("njr,njc->nrc", vk, xext[sk])
+            acc = acc.at[rk].add(jnp.einsum("nir,nrc->nic", uk, t))
+            t = jnp.einsum("nir,nic->nrc", uk, xext[rk])
+            return acc.at[sk].add(jnp.einsum("njr,nrc->njc", vk, t))
+
+        def body(acc, xs):
+            uk, vk, rk, sk = xs
+            if only_block is None:
+                return compute(acc, uk, vk, rk, sk), None
+            touches = jnp.any(block_of[rk] == only_block) | jnp.any(block_of[sk] == only_block)
+            acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, uk, vk, rk, sk)
+            return acc, None
+
+        out, _ = jax.lax.scan(body, out, (u, v, rr, ss))
+        return out
+
+    def todense(self):
+        u, v = np.asarray(self.u, np.float64), np.asarray(self.v, np.float64)
+        return np.einsum("nir,njr->nij", u, v)
+
+    @property
+    def data_nbytes(self):
+        return int(self.u.nbytes + self.v.nbytes)
 
 
 class Info(dict):
@@ -72,73 +195,6 @@ class Info(dict):
 
     def __hash__(self):  # type: ignore[override]
         return hash(json.dumps(self, sort_keys=True, default=str))
-
-
-def _bucket_apply(bk: Bucket, xext: Array, out: Array, only_block=None) -> Array:
-    """out += G_bucket @ xext (both directions for off-diagonal pairs).
-
-    With ``only_block``, chunks with no pair touching that block are skipped (``lax.cond``):
-    the product with a vector that is zero outside the block, at the cost of its pairs only.
-    """
-    n, sa, sb = bk.blocks.shape
-    steps = n // bk.chunk
-    d = bk.blocks.reshape(steps, bk.chunk, sa, sb)
-    r = bk.recv.reshape(steps, bk.chunk, sa)
-    s = bk.src.reshape(steps, bk.chunk, sb)
-    rb = bk.recv_block.reshape(steps, bk.chunk)
-    sbk = bk.src_block.reshape(steps, bk.chunk)
-
-    def compute(acc, dk, rk, sk):
-        dk = dk.astype(xext.dtype)  # float32 storage, computed in the solve's precision
-        acc = acc.at[rk].add(jnp.einsum("nij,njc->nic", dk, xext[sk]))
-        if not bk.diagonal:
-            acc = acc.at[sk].add(jnp.einsum("nij,nic->njc", dk, xext[rk]))
-        return acc
-
-    def body(acc, xs):
-        dk, rk, sk, rbk, sbkk = xs
-        if only_block is None:
-            return compute(acc, dk, rk, sk), None
-        touches = jnp.any((rbk == only_block) | (sbkk == only_block))
-        acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, dk, rk, sk)
-        return acc, None
-
-    out, _ = jax.lax.scan(body, out, (d, r, s, rb, sbk))
-    return out
-
-
-def _lowrank_apply(bk: LowRankBucket, xext: Array, out: Array, only_block=None,
-                   block_of=None) -> Array:
-    """out += (U Vᵀ) x[src] into recv and (V Uᵀ) x[recv] into src, batched like the dense case.
-
-    ``block_of``: the block of each patch, and −1 for the padding patch (for ``only_block``:
-    a side may span several blocks).
-    """
-    n, sa, r = bk.u.shape
-    sb = bk.v.shape[1]
-    steps = n // bk.chunk
-    u = bk.u.reshape(steps, bk.chunk, sa, r)
-    v = bk.v.reshape(steps, bk.chunk, sb, r)
-    rr = bk.recv.reshape(steps, bk.chunk, sa)
-    ss = bk.src.reshape(steps, bk.chunk, sb)
-
-    def compute(acc, uk, vk, rk, sk):
-        uk, vk = uk.astype(xext.dtype), vk.astype(xext.dtype)
-        t = jnp.einsum("njr,njc->nrc", vk, xext[sk])
-        acc = acc.at[rk].add(jnp.einsum("nir,nrc->nic", uk, t))
-        t = jnp.einsum("nir,nic->nrc", uk, xext[rk])
-        return acc.at[sk].add(jnp.einsum("njr,nrc->njc", vk, t))
-
-    def body(acc, xs):
-        uk, vk, rk, sk = xs
-        if only_block is None:
-            return compute(acc, uk, vk, rk, sk), None
-        touches = jnp.any(block_of[rk] == only_block) | jnp.any(block_of[sk] == only_block)
-        acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, uk, vk, rk, sk)
-        return acc, None
-
-    out, _ = jax.lax.scan(body, out, (u, v, rr, ss))
-    return out
 
 
 @eqx.filter_jit
@@ -149,16 +205,8 @@ def _gmul(op: TransportOperator, x, only_block):
     out = jnp.zeros_like(xext)
     block_of = jnp.concatenate([op.block_of, jnp.full((1,), -1, op.block_of.dtype)])
     for bk in op.buckets:
-        if isinstance(bk, LowRankBucket):
-            out = _lowrank_apply(bk, xext, out, only_block, block_of)
-        else:
-            out = _bucket_apply(bk, xext, out, only_block)
+        out = bk.apply(xext, out, only_block, block_of)
     return out[:-1].reshape(shape)
-
-
-def _bucket_nbytes(bk) -> int:
-    data = bk.u.nbytes + bk.v.nbytes if isinstance(bk, LowRankBucket) else bk.blocks.nbytes
-    return int(data + bk.recv.nbytes + bk.src.nbytes)
 
 
 class TransportOperator(eqx.Module):
@@ -168,7 +216,7 @@ class TransportOperator(eqx.Module):
     on the front of patch j. Build with :func:`~lumijax.radiosity.build_operator`.
     """
 
-    buckets: tuple[Bucket | LowRankBucket, ...]
+    buckets: tuple[AbstractBucket, ...]
     area: Float[Array, " patches"]
     block_of: Int[Array, " patches"]
     n_patches: int = eqx.field(static=True)
@@ -203,11 +251,7 @@ class TransportOperator(eqx.Module):
         p = self.n_patches
         g = np.zeros((p + 1, p + 1))
         for bk in self.buckets:
-            if isinstance(bk, LowRankBucket):
-                u, v = np.asarray(bk.u, np.float64), np.asarray(bk.v, np.float64)
-                d = np.einsum("nir,njr->nij", u, v)
-            else:
-                d = np.asarray(bk.blocks, np.float64)
+            d = bk.todense()
             r, s = np.asarray(bk.recv), np.asarray(bk.src)
             for k in range(len(d)):
                 g[np.ix_(r[k], s[k])] += d[k]
@@ -218,17 +262,17 @@ class TransportOperator(eqx.Module):
     @property
     def nbytes(self) -> int:
         """Bytes of stored blocks and their index arrays (padding included)."""
-        return int(sum(_bucket_nbytes(bk) for bk in self.buckets))
+        return int(sum(bk.nbytes for bk in self.buckets))
 
     @property
     def dense_nbytes(self) -> int:
         """Bytes in dense buckets (the near field)."""
-        return int(sum(_bucket_nbytes(bk) for bk in self.buckets if isinstance(bk, Bucket)))
+        return int(sum(bk.nbytes for bk in self.buckets if bk.kind == "dense"))
 
     @property
     def lowrank_nbytes(self) -> int:
         """Bytes in low-rank buckets (the compressed far field)."""
-        return int(sum(_bucket_nbytes(bk) for bk in self.buckets if isinstance(bk, LowRankBucket)))
+        return int(sum(bk.nbytes for bk in self.buckets if bk.kind == "lowrank"))
 
 
 # -- K = ρF as a lineax operator ------------------------------------------------------------------

@@ -163,7 +163,7 @@ def _arrays(op: TransportOperator):
     out = [("area", np.asarray(op.area, np.float64)), ("block_of", np.asarray(op.block_of))]
     buckets = []
     for k, bk in enumerate(op.buckets):
-        kind = "lowrank" if isinstance(bk, LowRankBucket) else "dense"
+        kind = bk.kind
         buckets.append({"kind": kind, "diagonal": bool(bk.diagonal), "chunk": bk.chunk})
         out += [(f"b{k}_{f}", np.ascontiguousarray(np.asarray(getattr(bk, f))))
                 for f in _FIELDS[kind]]
