@@ -155,43 +155,64 @@ def _grid_coords(photometric_type: str, d):
     return hh * deg, jnp.arctan2(x, r) * deg
 
 
+def _fraction(x, g0, g1):
+    """``(x − g0) / (g1 − g0)``, 0 where the cell has collapsed (knots equal after rounding).
+
+    Angles strictly ascending in float64 can round to equal float32 values when a table holds
+    clustered angles; a zero-width cell then contributes its left value instead of a NaN.
+    """
+    w = g1 - g0
+    ok = w > 0
+    return jnp.where(ok, (x - g0) / jnp.where(ok, w, jnp.ones((), w.dtype)), jnp.zeros((), w.dtype))
+
+
 def _locate(grid, x):
     """Cell index and fractional position of ``x`` on an ascending, possibly non-uniform grid."""
     n = grid.shape[0]
     i = jnp.clip(jnp.searchsorted(grid, x, side="right") - 1, 0, n - 2)
-    g0 = grid[i]
-    g1 = grid[i + 1]
-    return i, (x - g0) / (g1 - g0)
+    return i, _fraction(x, grid[i], grid[i + 1])
 
 
 def _cell_lut(grid: np.ndarray) -> tuple[np.ndarray, int]:
     """A uniform-bin lookup table of cells for an ascending, non-uniform grid.
 
-    ``lut[k]`` is the cell holding bin k's left edge; a search then costs one gather and
-    ``steps`` comparisons (the most knots any bin holds) instead of a binary search, which is
-    the dominant cost of a lookup when evaluated 10⁸ times.
+    ``lut[k]`` is the cell holding the left edge of bin ``k`` (``bins + 1`` entries, the last one
+    for the right end). The cell of ``x`` in bin ``k`` then lies in ``lut[k − 1] … lut[k + 2]``
+    (one bin of slack on each side covers a bin index rounded either way), and a bisection of
+    that bracket finds it. Returns the table and the number of bisection steps,
+    ``⌈log2(widest bracket + 1)⌉``: 1–2 for the usual, nearly uniform grids (one gather and a
+    couple of comparisons instead of a full binary search, the dominant cost of a lookup when
+    evaluated 10⁸ times), and never more than ``⌈log2 n⌉`` — so the compiled kernel's size is
+    bounded by the table's shape, however the angles cluster.
     """
     n = len(grid)
     span = float(grid[-1] - grid[0])
     bins = int(np.clip(np.ceil(2.0 * span / np.min(np.diff(grid))), 64, 1 << 16))
     edges = grid[0] + np.arange(bins + 1) * (span / bins)
-    lut = np.clip(np.searchsorted(grid, edges[:-1], side="right") - 1, 0, n - 2)
-    inner = np.searchsorted(grid, edges[1:], side="right") - 1
-    steps = int(np.max(np.clip(inner, 0, n - 2) - lut)) if bins else 0
-    return lut.astype(np.int32), steps
+    edges[-1] = grid[-1]
+    lut = np.clip(np.searchsorted(grid, edges, side="right") - 1, 0, n - 2).astype(np.int32)
+    lo = lut[np.maximum(np.arange(bins) - 1, 0)]
+    hi = lut[np.minimum(np.arange(bins) + 2, bins)]
+    width = int(np.max(hi - lo))
+    steps = int(np.ceil(np.log2(width + 1))) if width > 0 else 0
+    return lut, steps
 
 
 def _locate_lut(grid, lut, steps: int, x):
     """As :func:`_locate`, through a :func:`_cell_lut` table (same cells, exactly)."""
-    n, bins = grid.shape[0], lut.shape[0]
+    bins = lut.shape[0] - 1
     scale = bins / (grid[-1] - grid[0])
     k = jnp.clip(jnp.floor((x - grid[0]) * scale).astype(jnp.int32), 0, bins - 1)
-    i = lut[k]
-    for _ in range(steps + 1):  # +1 covers a bin index rounded down at a bin edge
-        i = jnp.where((i < n - 2) & (x >= grid[jnp.minimum(i + 1, n - 1)]), i + 1, i)
-    i = jnp.where((i > 0) & (x < grid[i]), i - 1, i)  # …or rounded up
-    g0 = grid[i]
-    return i, (x - g0) / (grid[i + 1] - g0)
+    lo = lut[jnp.maximum(k - 1, 0)]
+    hi = lut[jnp.minimum(k + 2, bins)]
+    # Bisection of [lo, hi] for the last knot ≤ x: a fixed number of steps (≤ ⌈log2 n⌉).
+    for _ in range(steps):
+        mid = (lo + hi + 1) // 2
+        up = grid[mid] <= x
+        lo = jnp.where(up, mid, lo)
+        hi = jnp.where(up, hi, mid - 1)
+    i = lo
+    return i, _fraction(x, grid[i], grid[i + 1])
 
 
 @functools.partial(jax.jit, static_argnums=(0, 6, 7))
