@@ -98,6 +98,9 @@ def _key_path(loc: tuple) -> str:
 
 def _describe(err: dict) -> str:
     typ, msg, inp = err["type"], err["msg"], err.get("input")
+    if isinstance(inp, float) and inp != inp or inp in (float("inf"), float("-inf")):
+        # TOML has nan and inf; a bound test on them would read "greater than 0, got nan"
+        return f"expected a finite number, got {inp!r}"
     if typ == "extra_forbidden":
         return "unknown key (check its spelling against docs/config.md)"
     if typ == "missing" and isinstance(err["loc"][-1], int):
@@ -216,12 +219,13 @@ def _grid_size(g) -> int:
     """Points of a grid, as the scene will build it (lumijax.scene._grid)."""
     import math
 
+    from ._schema import grid_count
+
     if g.kind == "points":
         return len(g.points)
-    if g.spacing is not None:
-        nu = max(1, int(round(math.dist((0, 0, 0), g.u) / g.spacing)))
-        nv = max(1, int(round(math.dist((0, 0, 0), g.v) / g.spacing)))
-        return nu * nv
+    if g.spacing is not None:  # finite: the schema refused counts beyond MAX_GRID_POINTS
+        return int(grid_count(math.hypot(*g.u), g.spacing) * grid_count(math.hypot(*g.v),
+                                                                          g.spacing))
     return g.nu * g.nv
 
 
@@ -249,3 +253,40 @@ def _check_optimise(cfg: StudyConfig, fail) -> None:
     if "levels" in opt.variables and "dimmers" not in opt.variables:
         fail("optimise.variables", "'levels' scale luminaires within their network: "
                                    "optimise 'dimmers' too")
+    photometric = [lum for lum in cfg.luminaires if lum.kind == "photometric"]
+    for var in ("aims", "levels"):
+        if var in opt.variables and not photometric:
+            fail("optimise.variables", f"{var!r} are fitted on photometric luminaires and the "
+                                       "study has none (area sources cannot be aimed or "
+                                       f"levelled): remove {var!r}")
+    free = []  # what the fit may change: a box lo < hi on at least one variable
+    if opt.dimmer_min < 1 and cfg.luminaires:
+        free += [v for v in ("dimmers", "levels") if v in opt.variables]
+    if "aims" in opt.variables and any(
+            lo < hi for lum in photometric for lo, hi in _aim_ranges(cfg, lum, opt)):
+        free.append("aims")
+    if not free:
+        why = []
+        if not cfg.luminaires:
+            why.append("the study has no luminaire")
+        elif {"dimmers", "levels"} & set(opt.variables):
+            why.append(f"dimmer_min = {opt.dimmer_min:g} pins every dimmer and level at 1")
+        if "aims" in opt.variables and photometric:
+            why.append("every aim range (tilt_range_deg, pan_range_deg, aim_range_deg) is a "
+                       "single angle")
+        only_dimmer_min = cfg.luminaires and "aims" not in opt.variables
+        fail("optimise.dimmer_min" if only_dimmer_min else "optimise.variables",
+             f"nothing can change: {' and '.join(why)}; give the optimiser a range to move in")
+
+
+def _aim_ranges(cfg: StudyConfig, lum, opt):
+    """(tilt, pan) ranges in degrees of a luminaire: its own, then its groups', then
+    ``[optimise]`` (as lumijax.optimise resolves them)."""
+    ranges = [lum.aim_range_deg]
+    g = lum.group
+    while g is not None:
+        ranges.append(cfg.groups[g].aim_range_deg)
+        g = cfg.groups[g].parent
+    return [next((getattr(r, comp) for r in ranges if r is not None
+                  and getattr(r, comp) is not None), default)
+            for comp, default in (("tilt", opt.tilt_range_deg), ("pan", opt.pan_range_deg))]

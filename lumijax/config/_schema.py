@@ -57,6 +57,39 @@ def _finite(v: float) -> float:
 Finite = Annotated[float, AfterValidator(_finite)]
 Positive = Annotated[float, Field(gt=0), AfterValidator(_finite)]
 NonNegative = Annotated[float, Field(ge=0), AfterValidator(_finite)]
+
+#: Largest illuminance a goal may ask for (lx): 10⁹ lx is ten thousand times direct sunlight. A
+#: goal beyond it is a typo, and its square overflows the objective in float32/float64 fits.
+MAX_LUX = 1e9
+#: Largest luminance a goal may name (cd/m²): the sun's disc is about 1.6·10⁹ cd/m².
+MAX_LUMINANCE_CDM2 = 1e10
+#: Largest luminous flux of one source (lm): 10¹⁰ lm is ten thousand stadium floodlights.
+MAX_FLUX_LM = 1e10
+#: Most points one plane grid may have: 10⁸ points take ~5 GB for their coordinates alone.
+MAX_GRID_POINTS = 100_000_000
+
+
+def _at_most(limit: float, unit: str):
+    def check(v: float | None) -> float | None:
+        if v is not None and v > limit:
+            raise ValueError(f"{v:g} {unit} is beyond the largest accepted value {limit:g} {unit}")
+        return v
+
+    return AfterValidator(check)
+
+
+def grid_count(length_m: float, spacing_m: float) -> float:
+    """Points along an edge of ``length_m`` at ``spacing_m`` (at least 1), as the scene counts
+    them, in floats: inf when the spacing is too small to count, never an OverflowError."""
+    n = length_m / spacing_m
+    return max(1.0, float(round(n))) if math.isfinite(n) else math.inf
+
+
+Lux = Annotated[float, Field(ge=0), AfterValidator(_finite), _at_most(MAX_LUX, "lx")]
+PositiveLux = Annotated[float, Field(gt=0), AfterValidator(_finite), _at_most(MAX_LUX, "lx")]
+Luminance = Annotated[float, Field(gt=0), AfterValidator(_finite),
+                      _at_most(MAX_LUMINANCE_CDM2, "cd/m²")]
+Flux = Annotated[float, Field(gt=0), AfterValidator(_finite), _at_most(MAX_FLUX_LM, "lm")]
 Vec3 = tuple[Finite, Finite, Finite]
 Name = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")]
 
@@ -212,7 +245,7 @@ class BuiltinPhotometry(_Model):
     """``[photometry.NAME] kind = "isotropic" | "lambertian"`` with ``flux_lm``."""
 
     kind: Literal["isotropic", "lambertian"]
-    flux_lm: Positive
+    flux_lm: Flux
 
 
 class Aim(_Model):
@@ -245,7 +278,7 @@ class PhotometricLuminaire(_LuminaireBase):
     position: Vec3
     aim: Aim | None = None
     aim_at: Vec3 | None = None
-    multiplier: NonNegative = 1.0
+    multiplier: Annotated[NonNegative, _at_most(1e6, "(a scale factor)")] = 1.0
     maintenance_factor: Annotated[float, Field(gt=0, le=1)] = 1.0
     aim_range_deg: AimRange | None = None
 
@@ -265,7 +298,7 @@ class AreaLuminaire(_LuminaireBase):
     origin: Vec3
     u: Vec3
     v: Vec3
-    flux_lm: Positive
+    flux_lm: Flux
     maintenance_factor: Annotated[float, Field(gt=0, le=1)] = 1.0
 
 
@@ -303,13 +336,13 @@ class NetworkConfig(_Model):
 class _GridBase(_Model):
     name: Name
     group: Name | None = None
-    target_lux: NonNegative | None = None
+    target_lux: Lux | None = None
     target_csv: Path | None = Field(None, description="CSV x,y,z,lux at the grid's points")
-    target_weight: NonNegative = 1.0
-    min_lux: NonNegative | None = None
-    max_lux: Positive | None = None
+    target_weight: Annotated[NonNegative, _at_most(1e6, "(a relative weight)")] = 1.0
+    min_lux: Lux | None = None
+    max_lux: PositiveLux | None = None
     uniformity_min: Annotated[float, Field(gt=0, le=1)] | None = None
-    max_luminance_cdm2: Positive | None = None
+    max_luminance_cdm2: Luminance | None = None
     reflectance: Annotated[float, Field(ge=0, lt=1)] | None = None
 
     @field_validator("target_csv", mode="before")
@@ -350,6 +383,30 @@ class PlaneGrid(_GridBase):
         if self.spacing is not None and any(counts):
             raise ValueError("give 'spacing' or 'nu'/'nv', not both")
         return self
+
+    # Counted in floats: a tiny spacing must give a clear error, not an OverflowError. Field
+    # validators (u and v, then nu, are validated first) so that the error names the key.
+    @field_validator("spacing")
+    @classmethod
+    def _spacing_count(cls, v, info: ValidationInfo):
+        edges = [info.data.get(k) for k in ("u", "v")]
+        if v is None or None in edges:
+            return v
+        n = grid_count(math.hypot(*edges[0]), v) * grid_count(math.hypot(*edges[1]), v)
+        if not n <= MAX_GRID_POINTS:
+            many = f"about {n:.3g} points" if math.isfinite(n) else "more points than can be counted"
+            raise ValueError(f"{v:g} m over u and v gives {many}, more than the "
+                             f"{MAX_GRID_POINTS:.0e} a grid may have: use a coarser spacing (m)")
+        return v
+
+    @field_validator("nv")
+    @classmethod
+    def _nu_nv_count(cls, v, info: ValidationInfo):
+        nu = info.data.get("nu")
+        if v is not None and nu is not None and nu * v > MAX_GRID_POINTS:
+            raise ValueError(f"nu × nv = {nu} × {v} = {nu * v:.3g} points, more than the "
+                             f"{MAX_GRID_POINTS:.0e} a grid may have")
+        return v
 
 
 class PointsGrid(_GridBase):
@@ -438,11 +495,11 @@ class OptimiseConfig(_Model):
     max_steps: Annotated[int, Field(ge=1, le=100_000)] = 200
     tolerance: Annotated[float, Field(gt=0, lt=1)] = 1e-8
     dimmer_min: Annotated[float, Field(ge=0, le=1)] = 0.0
-    energy_weight: NonNegative = 0.0
-    constraint_weight: Positive = 10.0
+    energy_weight: Annotated[NonNegative, _at_most(1e6, "(a relative weight)")] = 0.0
+    constraint_weight: Annotated[Positive, _at_most(1e6, "(a relative weight)")] = 10.0
     tilt_range_deg: Range = (-15.0, 15.0)
     pan_range_deg: Range = (-15.0, 15.0)
-    max_luminance_cdm2: Positive | None = None
+    max_luminance_cdm2: Luminance | None = None
     indirect: bool = True
 
     @field_validator("variables")

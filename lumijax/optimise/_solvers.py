@@ -348,7 +348,10 @@ def minimise(residuals: Residuals, args, x0, lo, hi, *,
     t0 = time.perf_counter()
     x0, lo, hi = (jnp.asarray(a, jnp.result_type(float)) for a in (x0, lo, hi))
     x0 = jnp.clip(x0, lo, hi)
-    run = optimiser.run(residuals, args, x0, lo, hi, max_steps, tolerance)
+    if bool(jnp.all(lo == hi)):  # a box of one point: nothing to search (scipy has no status)
+        run = SolverRun(optimiser.name, x0, [float(_value(residuals)(x0, args))], converged=True)
+    else:
+        run = optimiser.run(residuals, args, x0, lo, hi, max_steps, tolerance)
     run.x = np.clip(np.asarray(run.x, np.float64), np.asarray(lo), np.asarray(hi))
     run.seconds = time.perf_counter() - t0
     return run

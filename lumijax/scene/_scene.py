@@ -10,7 +10,6 @@ import numpy as np
 from jaxtyping import Float
 
 from ..config import StudyConfig
-from ..config._schema import MAX_GRID_POINTS, grid_count
 from ..errors import ConfigError, GeometryError, LumijaxError
 from ._elements import AreaSource, Grid, Luminaire, Material, Network, plane_grid_points
 from ._frames import Frame, aim_angles_towards, resolve_group_frames
@@ -294,9 +293,11 @@ def _grid(g, frame: Frame, src, key: str) -> Grid:
         return Grid(g.name, pts, frame.normals(normals).copy(), target_lux=g.target_lux)
     u, v = frame.vectors(g.u), frame.vectors(g.v)
     cross = np.cross(u, v)
-    if np.linalg.norm(cross) <= 1e-12:
+    if np.linalg.norm(cross) <= 1e-12 * np.linalg.norm(u) * np.linalg.norm(v):  # any unit
         raise ConfigError("'u' and 'v' are parallel or zero: the grid has no area",
                           file=src, key=key)
+    from ..config._schema import MAX_GRID_POINTS, grid_count
+
     if g.spacing is not None:  # in world metres: a group's scale changes the count
         fu, fv = (grid_count(float(np.linalg.norm(e)), g.spacing) for e in (u, v))
     else:
