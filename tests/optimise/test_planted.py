@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import lsq_linear
 
 import lumijax
-from lumijax import ConfigError
+from lumijax import ConfigError, config
 from lumijax.optimise import SOLVERS, DimmerLight, Objective, minimise
 from lumijax.optimise._optimise import _residuals
 from lumijax.optimise._targets import GridGoal
@@ -65,7 +65,8 @@ def test_dimmers_recovered_from_a_planted_map(facade_dir, facade_results):
     assert opt.before["wall"] == results["wall"].stats
 
 
-def test_aims_and_dimmers_recovered_from_a_planted_map(facade_dir, facade_results):
+def test_aims_and_dimmers_recovered_from_a_planted_map(facade_dir, facade_results,
+                                                       monkeypatch):
     """The target is the full pipeline's light at known aims and dimmers; the fit starts from
     aims 3–5° away and other dimmers, and finds the aims within 0.5° and dimmers within 1e-3."""
     true_aims = [(t + dt, p + dp) for (t, p), (dt, dp) in
@@ -82,13 +83,29 @@ def test_aims_and_dimmers_recovered_from_a_planted_map(facade_dir, facade_result
                                          'tolerance = 1e-12\nmax_steps = 100'), "utf-8")
     study, results = facade_results
     s = lumijax.load_study(path)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the optimiser parsed config text to light its design")
+
+    # the fitted design is lit by scene.with_design, never by writing and parsing TOML
+    monkeypatch.setattr(config, "parse_config", refuse)
+    monkeypatch.setattr(config, "load_config", refuse)
     opt = lumijax.optimise(s, results)
+    monkeypatch.undo()
     for name, (t, p) in zip(["s0", "s1", "s2", "s3"], true_aims, strict=True):
         assert opt.aims[name]["tilt"] == pytest.approx(t, abs=0.5), opt.aims
         assert opt.aims[name]["pan"] == pytest.approx(p, abs=0.5), opt.aims
     assert opt.dimmers["n0"] == pytest.approx(0.45, abs=1e-3)
     assert opt.dimmers["n1"] == pytest.approx(0.7, abs=1e-3)
-    # the results are a full re-computation of the optimised config
+    # the results are lit at the fitted design itself, and optimised.toml (written for the
+    # designer, 4 decimals) loads back to it
+    for f in ("dimmers", "tilt_deg", "pan_deg", "spin_deg", "level"):
+        np.testing.assert_array_equal(getattr(opt.results.design, f), getattr(opt.design, f))
+    (facade_dir / "aims-optimised.toml").write_text(opt.config_text(facade_dir), "utf-8")
+    again = lumijax.load_study(facade_dir / "aims-optimised.toml").design
+    np.testing.assert_allclose(again.tilt_deg, opt.design.tilt_deg, rtol=0, atol=5e-5)
+    np.testing.assert_allclose(again.pan_deg, opt.design.pan_deg, rtol=0, atol=5e-5)
+    # the results are a full re-computation at the optimised design
     np.testing.assert_allclose(opt.results["wall"].illuminance_lux,
                                true_results["wall"].illuminance_lux, rtol=0.02,
                                atol=0.01 * true_results["wall"].stats["max"])
