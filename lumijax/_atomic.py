@@ -11,8 +11,10 @@ one orphaned by a killed process (kill -9 skips every ``finally``) is recognised
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,8 +22,8 @@ from pathlib import Path
 from .errors import OutputError
 
 __all__ = [
-    "atomic_path", "atomic_write_bytes", "atomic_write_text", "file_mode", "pid_alive",
-    "remove_orphans",
+    "FolderLock", "atomic_path", "atomic_write_bytes", "atomic_write_text", "exchange_paths",
+    "file_mode", "fsync_dir", "fsync_tree", "pid_alive", "remove_orphans",
 ]
 
 _TMP_TAG = ".lumijax-tmp-"
@@ -110,3 +112,115 @@ def atomic_write_bytes(path: str | Path, data: bytes, *, what: str = "file") -> 
 def atomic_write_text(path: str | Path, text: str, *, what: str = "file") -> Path:
     """Write UTF-8 ``text`` to ``path`` atomically."""
     return atomic_write_bytes(path, text.encode("utf-8"), what=what)
+
+
+# -- folders: a lock beside one, and swapping a staged folder in --------------------------------
+
+try:
+    import fcntl
+except ImportError:  # Windows: no advisory locks here; runs into one folder are not serialised
+    fcntl = None
+
+
+class FolderLock:
+    """An exclusive lock on the folder ``out``, held through the file ``<out>.lock`` beside it.
+
+    ``fcntl.flock`` on that file: the kernel drops it when the holder exits, however it exits
+    (kill -9 included), so a lock is never stale; a leftover lock file is simply locked again.
+    A second holder fails at once with an :class:`OutputError` naming the folder and the pid of
+    the holder (written into the lock file). Use as a context manager.
+    """
+
+    def __init__(self, out: str | Path) -> None:
+        self.out = Path(out)
+        self.path = self.out.with_name(self.out.name + ".lock")
+        self._fd: int | None = None
+
+    def __enter__(self) -> FolderLock:
+        if fcntl is None:
+            return self
+        while True:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0),
+                             0o644)
+            except OSError as e:
+                raise OutputError(f"cannot lock the output folder: {e.strerror or e}",
+                                  file=self.out) from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                holder = os.read(fd, 32).decode("ascii", "replace").strip() or "unknown"
+                os.close(fd)
+                raise OutputError(f"another lumijax run (pid {holder}) is writing this folder; "
+                                  "wait for it, or give another --out", file=self.out) from None
+            try:  # a holder that just released unlinked the file we opened: lock the new one
+                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+            except OSError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)  # before the unlock: a waiter then sees a new file
+            os.close(self._fd)
+            self._fd = None
+
+
+_RENAME_EXCHANGE = 2
+
+
+def exchange_paths(a: str | Path, b: str | Path) -> bool:
+    """Swap two folders in one atomic step (Linux ``renameat2(RENAME_EXCHANGE)``).
+
+    False where the system or file system cannot (then nothing was changed).
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):  # glibc < 2.28, musl
+        return False
+    at_fdcwd = -100
+    rc = fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), _RENAME_EXCHANGE)
+    if rc == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EXDEV):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def fsync_tree(folder: str | Path) -> None:
+    """Flush every file under ``folder``, and the folders themselves, to disk."""
+    for root, _dirs, files in os.walk(folder):
+        for name in files:
+            fd = os.open(os.path.join(root, name), os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        fsync_dir(root)
+
+
+def fsync_dir(folder: str | Path) -> None:
+    """Flush a folder's entries (renames into it) to disk, where the system allows."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # some file systems refuse fsync on a folder
+        pass
+    finally:
+        os.close(fd)

@@ -85,27 +85,32 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
          cache_dir: Path | None = None, optimise: bool = True, report: bool = True) -> int:
     from ._study import compute, load_study
     from .report import write_results
+    from .report._write import ResultSet
 
     t0 = time.perf_counter()
-    study = load_study(config)
-    progress, update = _progress_bar(console, "lighting")
-    with progress:
-        results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir)
-    if optimise and study.config.optimise is not None:
-        from .optimise import optimise as fit
+    # The folder is locked from the start (a second run into it stops at once, not after its
+    # compute), and every file, the report included, is staged and swapped in as one set.
+    with ResultSet(out) as rs:
+        study = load_study(config)
+        progress, update = _progress_bar(console, "lighting")
+        with progress:
+            results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir)
+        if optimise and study.config.optimise is not None:
+            from .optimise import optimise as fit
 
-        results = fit(study, results, cache_dir=cache_dir).results
-    paths = write_results(results, out, images=images)
-    _summary_table(results, console)
-    if results.optimisation is not None:
-        _optimisation_table(results.optimisation, console)
-    if report:
-        from .report import write_report
+            results = fit(study, results, cache_dir=cache_dir).results
+        paths = write_results(results, rs, images=images)
+        _summary_table(results, console)
+        if results.optimisation is not None:
+            _optimisation_table(results.optimisation, console)
+        if report:
+            from .report import write_report
 
-        t1 = time.perf_counter()
-        paths["report.html"] = write_report(study, results, out / "report.html",
-                                            pictures=images)
-        console.print(f"report: {paths['report.html']} ({time.perf_counter() - t1:.1f} s)")
+            t1 = time.perf_counter()
+            write_report(study, results, rs.staging / "report.html", pictures=images)
+            paths["report.html"] = rs.out / "report.html"
+            console.print(f"report: {paths['report.html']} ({time.perf_counter() - t1:.1f} s)")
+        rs.commit()
     n = results.counts.get("shadow_rays", 0)
     console.print(
         f"wrote {len(paths)} files to {out} in {time.perf_counter() - t0:.1f} s "
@@ -117,15 +122,27 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
 def _report(config: Path, out: Path, *, pictures: bool, console) -> int:
     """Compute the study as configured (the operator cache makes this quick) and write
     ``report.html``; ``lumijax run`` writes the same report after results and optimisation."""
+    from ._atomic import FolderLock
     from ._study import compute, load_study
     from .report import write_report
+    from .report._write import KEPT_NAMES, SET_NAMES
 
     t0 = time.perf_counter()
-    study = load_study(config)
-    progress, update = _progress_bar(console, "lighting")
-    with progress:
-        results = compute(study, progress=update)
-    path = write_report(study, results, out / "report.html", pictures=pictures)
+    # report.html alone is replaced (one atomic rename), under the folder's lock; the rest of
+    # a run's set, if any, stays as it was (docs/results.md, "Atomic writing")
+    with FolderLock(out):
+        if out.is_dir() and (names := sorted(
+                p.name for p in out.iterdir() if p.name not in SET_NAMES
+                and p.name not in KEPT_NAMES and not p.name.startswith(".report.html"))):
+            from .errors import OutputError
+
+            raise OutputError(f"holds {names[0]!r}, which lumijax did not write; give an empty "
+                              "or a new --out", file=out)
+        study = load_study(config)
+        progress, update = _progress_bar(console, "lighting")
+        with progress:
+            results = compute(study, progress=update)
+        path = write_report(study, results, out / "report.html", pictures=pictures)
     console.print(f"wrote {path} in {time.perf_counter() - t0:.1f} s")
     return 0
 
@@ -177,9 +194,11 @@ def _view(config: Path, *, web: bool, host: str, port: int, camera: str | None,
 
 
 def _check(config: Path, *, as_json: bool, console) -> int:
-    from ._study import load_study
+    from ._study import check_memory, load_study
 
-    summary = load_study(config).summary()
+    study = load_study(config)
+    estimate = check_memory(study)  # refuses an operator that cannot fit (SolveError)
+    summary = study.summary()
     if as_json:
         print(json.dumps({k: v for k, v in summary.items() if k != "study"}, indent=1))
         return 0
@@ -197,6 +216,9 @@ def _check(config: Path, *, as_json: bool, console) -> int:
         rated = "—" if p["rated_lm"] is None else f"{p['rated_lm']:.1f}"
         table.add_row(name, rated, f"{p['integrated_lm']:.1f}")
     console.print(table)
+    if estimate is not None:
+        console.print(f"transport operator: at most {estimate.stored_bytes / 2**20:,.0f} MiB "
+                      f"for {estimate.patches:,} patches")
     console.print("config is valid")
     return 0
 

@@ -1,25 +1,166 @@
-"""Write a study's results atomically: results.json, grids/NAME.csv, images/NAME.png.
+"""Write a study's results as one consistent set: results.json, grids/NAME.csv, images/NAME.png,
+patches.vtp, optimised.toml and (from the CLI) report.html.
 
-Everything is first written into a staging folder beside the output folder; only when every
-file is complete are they moved into place, each by an atomic rename. A failure half-way leaves
-the output folder as it was.
+A :class:`ResultSet` writes every file into a staging folder beside the output folder
+(``<out>.staging-<pid>-<random>``) and swaps it in as one step: one ``renameat2(RENAME_EXCHANGE)``
+on Linux, so ``<out>`` is at every instant either the complete old set or the complete new set,
+whatever kills the process; elsewhere two renames (``<out>`` → ``<out>.old-…``, staging →
+``<out>``), whose gap a later run repairs by putting the old set back. The output folder is
+locked for the set's lifetime (:class:`~lumijax._atomic.FolderLock`, ``<out>.lock``): a second
+run into it fails at once, naming the holder's pid. Under the lock, staging and old folders left
+by killed runs are removed first (their writers cannot be alive: they held the lock).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
+import secrets
 import shutil
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .._atomic import file_mode
+from .._atomic import FolderLock, exchange_paths, file_mode, fsync_dir, fsync_tree
 from ..errors import LumijaxError, OutputError
 from ..results import Results
 
-__all__ = ["write_results"]
+__all__ = ["ResultSet", "write_results"]
+
+#: What a run writes into its folder; a folder holding anything else is not replaced.
+SET_NAMES = frozenset({"results.json", "optimised.toml", "grids", "images", "patches.vtp",
+                       "report.html"})
+#: Carried from the old folder into the new one (the demo's operator cache lives there).
+KEPT_NAMES = (".lumijax-cache",)
+
+
+def _step(name: str) -> None:
+    """Called at each step of writing a set; tests replace it to kill the process there."""
+
+
+class ResultSet:
+    """One run's output files, staged beside ``out`` and swapped in by :meth:`commit`.
+
+    Use as a context manager::
+
+        with ResultSet("out") as rs:
+            write_results(results, rs)                 # into rs.staging
+            write_report(study, results, rs.staging / "report.html")
+            rs.commit()                                # the one step readers see
+
+    Leaving the block without :meth:`commit` (an error, Ctrl-C) discards the staging folder and
+    leaves ``out`` as it was. ``out`` must be absent, empty, or a folder lumijax wrote (only the
+    names in :data:`SET_NAMES` and :data:`KEPT_NAMES`): a run replaces the whole folder, so a
+    folder with other files in it is refused (:class:`OutputError`).
+    """
+
+    def __init__(self, out: str | Path) -> None:
+        out = Path(out)
+        # swap the folder a link points to, never the link itself
+        self.out = out.resolve() if out.is_symlink() else Path(os.path.abspath(out))
+        self.staging: Path | None = None
+        self._lock = FolderLock(self.out)
+        self.committed = False
+
+    def __enter__(self) -> ResultSet:
+        out = self.out
+        if out.exists() and not out.is_dir():
+            raise OutputError("not a folder", file=out)
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise OutputError(f"cannot create output folder: {e.strerror or e}",
+                              file=out) from None
+        self._lock.__enter__()
+        try:
+            try:
+                self._recover()
+                self._check_ours()
+                self.staging = Path(tempfile.mkdtemp(
+                    dir=out.parent, prefix=f"{out.name}.staging-{os.getpid()}-"))
+                os.chmod(self.staging, 0o777 & ~_umask())  # mkdtemp's 0700 is for temp files
+            except OSError as e:
+                raise OutputError(f"cannot write results: {e.strerror or e}",
+                                  file=out) from None
+        except BaseException:
+            self._lock.__exit__()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            if self.staging is not None and not self.committed:
+                shutil.rmtree(self.staging, ignore_errors=True)
+        finally:
+            self._lock.__exit__()
+
+    def _siblings(self, kind: str) -> list[Path]:
+        pat = re.compile(re.escape(self.out.name) + rf"\.{kind}-\d+-")
+        try:
+            return [p for p in self.out.parent.iterdir() if pat.match(p.name)]
+        except OSError:
+            return []
+
+    def _recover(self) -> None:
+        """Remove what killed runs left beside ``out``; put an old set back where a kill fell
+        between the two renames of a non-atomic swap."""
+        olds = self._siblings("old")
+        if not self.out.exists() and olds:
+            newest = max(olds, key=lambda p: p.stat().st_mtime)
+            os.rename(newest, self.out)
+            olds.remove(newest)
+        for p in olds + self._siblings("staging"):
+            shutil.rmtree(p, ignore_errors=True)
+
+    def _check_ours(self) -> None:
+        if not self.out.is_dir():
+            return
+        for p in self.out.iterdir():
+            if p.name in SET_NAMES or p.name in KEPT_NAMES or p.name.startswith(".staging-"):
+                continue  # (.staging-*: what lumijax < 0.2 left inside the folder)
+            raise OutputError(f"holds {p.name!r}, which lumijax did not write: a run replaces "
+                              "the whole folder, so give an empty or a new --out", file=self.out)
+
+    def commit(self) -> None:
+        """Swap the staged set in: ``out`` is the new set from the one atomic step on."""
+        if self.staging is None or self.committed:
+            raise OutputError("this result set is not open", file=self.out)
+        staging, out = self.staging, self.out
+        try:
+            fsync_tree(staging)
+            _step("synced")
+            if out.is_dir():
+                for name in KEPT_NAMES:
+                    if (out / name).exists() and not (staging / name).exists():
+                        os.rename(out / name, staging / name)
+                _step("kept")
+                if exchange_paths(staging, out):
+                    old = staging  # now holds the old set
+                else:  # two renames; _recover puts the old set back if a kill falls between
+                    old = out.with_name(f"{out.name}.old-{os.getpid()}-{secrets.token_hex(4)}")
+                    os.rename(out, old)
+                    _step("moved-old")
+                    os.rename(staging, out)
+            else:
+                os.rename(staging, out)
+                old = None
+            self.committed = True
+            fsync_dir(out.parent)
+            _step("swapped")
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
+            _step("cleaned")
+        except OSError as e:
+            raise OutputError(f"cannot write results: {e.strerror or e}", file=out) from None
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def _spans_an_area(points: np.ndarray) -> bool:
@@ -36,43 +177,50 @@ def _grid_csv(points: np.ndarray, lux: np.ndarray) -> str:
     return "x,y,z,lux\n" + body + "\n"
 
 
-def write_results(results: Results, out_dir: str | Path, *, images: bool = True) -> dict[str, Path]:
-    """Write results into ``out_dir`` (created if needed) and return the paths written.
+def _write_text(staging: Path, rel: str, text: str) -> None:
+    (staging / rel).write_text(text, encoding="utf-8")
+    _step(f"wrote {rel}")
+
+
+def write_results(results: Results, out: str | Path | ResultSet, *, images: bool = True
+                  ) -> dict[str, Path]:
+    """Write results as one set and return the paths (in the output folder) of the files.
+
+    ``out``: a folder (created if needed; the set is swapped in before this returns), or an open
+    :class:`ResultSet` (the files are staged in it; its :meth:`~ResultSet.commit` swaps them in,
+    with whatever else was staged, such as the report).
 
     Files: ``results.json`` (the documented contract, docs/results.md), ``grids/NAME.csv``
-    (x, y, z in m; lux), ``patches.vtp`` (the radiosity patches and their light, when
-    inter-reflection was computed) and, with ``images``, ``images/NAME.png`` false-colour
-    iso-lux maps.
+    (x, y, z in m; lux), ``optimised.toml`` (after an optimisation), ``patches.vtp`` (the
+    radiosity patches and their light, when inter-reflection was computed) and, with
+    ``images``, ``images/NAME.png`` false-colour iso-lux maps.
     """
-    out_dir = Path(out_dir)
+    if not isinstance(out, ResultSet):
+        with ResultSet(out) as rs:
+            paths = write_results(results, rs, images=images)
+            rs.commit()
+        return paths
+    rs = out
+    if rs.staging is None or rs.committed:
+        raise OutputError("this result set is not open", file=rs.out)
+    staging, out_dir = rs.staging, rs.out
+    written: list[str] = []
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise OutputError(f"cannot create output folder: {e.strerror}", file=out_dir) from None
-    if not os.access(out_dir, os.W_OK):
-        raise OutputError("output folder is not writable", file=out_dir)
-    staging = Path(tempfile.mkdtemp(dir=out_dir, prefix=".staging-"))
-    try:
-        written: dict[str, Path] = {}
-        (staging / "results.json").write_text(
-            json.dumps(results.to_dict(), indent=1, allow_nan=False), encoding="utf-8"
-        )
-        written["results.json"] = Path("results.json")
+        _write_text(staging, "results.json",
+                    json.dumps(results.to_dict(), indent=1, allow_nan=False))
+        written.append("results.json")
         if getattr(results, "optimisation", None) is not None:
             # the optimised study, its file paths relative to where it will live
-            (staging / "optimised.toml").write_text(
-                results.optimisation.config_text(out_dir), encoding="utf-8")
-            written["optimised.toml"] = Path("optimised.toml")
-        (staging / "grids").mkdir()
+            _write_text(staging, "optimised.toml", results.optimisation.config_text(out_dir))
+            written.append("optimised.toml")
+        (staging / "grids").mkdir(exist_ok=True)
         for name, g in results.grids.items():
-            (staging / "grids" / f"{name}.csv").write_text(
-                _grid_csv(g.points, g.illuminance_lux), encoding="utf-8"
-            )
-            written[f"grids/{name}.csv"] = Path("grids") / f"{name}.csv"
+            _write_text(staging, f"grids/{name}.csv", _grid_csv(g.points, g.illuminance_lux))
+            written.append(f"grids/{name}.csv")
         if images and results.grids:
             from ._falsecolour import falsecolour_map
 
-            (staging / "images").mkdir()
+            (staging / "images").mkdir(exist_ok=True)
             for name, g in results.grids.items():
                 if not _spans_an_area(g.points):
                     continue  # a map of one point, or of points on a line, shows nothing
@@ -86,23 +234,18 @@ def write_results(results: Results, out_dir: str | Path, *, images: bool = True)
                 except LumijaxError as e:
                     raise OutputError(f"cannot draw the map of grid {name!r}: {e.message}",
                                       file=out_dir) from None
-                written[f"images/{name}.png"] = Path("images") / f"{name}.png"
+                written.append(f"images/{name}.png")
+                _step(f"wrote images/{name}.png")
         lighting = results.lighting
         if lighting is not None and lighting.patches is not None:
             from ._vtk import write_patches_vtp
 
             write_patches_vtp(lighting, results.design.dimmers, staging / "patches.vtp")
-            written["patches.vtp"] = Path("patches.vtp")
-        final: dict[str, Path] = {}
-        mode = file_mode()
-        for key, rel in written.items():
-            dest = out_dir / rel
-            dest.parent.mkdir(parents=True, exist_ok=True)
-            os.chmod(staging / rel, mode)  # temp files are private; results are not
-            os.replace(staging / rel, dest)
-            final[key] = dest
-        return final
+            written.append("patches.vtp")
+            _step("wrote patches.vtp")
     except OSError as e:
-        raise OutputError(f"cannot write results: {e}", file=out_dir) from None
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        raise OutputError(f"cannot write results: {e.strerror or e}", file=out_dir) from None
+    for rel in written:
+        with contextlib.suppress(OSError):
+            os.chmod(staging / rel, file_mode())  # temp files are private; results are not
+    return {rel: out_dir / rel for rel in written}

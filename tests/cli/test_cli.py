@@ -64,23 +64,33 @@ def test_bad_config_is_one_line_without_traceback(box_room, write_study, tmp_pat
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.parametrize("stage", ["map", "report"])
 def test_failure_while_writing_leaves_previous_results_untouched(box_room, write_study, tmp_path,
-                                                                  monkeypatch):
+                                                                  monkeypatch, stage):
+    """A failure drawing a map (results staged half-way) or writing the report (every other
+    file staged) leaves the previous set, byte for byte, and no staging folder."""
     cfg = write_study(box_room)
     out = tmp_path / "out"
-    assert main(["run", str(cfg), "--out", str(out), "--no-images"]) == 0
-    before = (out / "results.json").read_bytes()
+    assert main(["run", str(cfg), "--out", str(out), "--no-images", "--no-report"]) == 0
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
 
     import lumijax.report
+    from lumijax.errors import OutputError
 
     def broken(*args, **kwargs):
-        raise OSError("disk full")
+        if stage == "map":
+            raise OSError("disk full")
+        raise OutputError("disk full", file=out / "report.html")
 
-    monkeypatch.setattr(lumijax.report, "falsecolour_map", broken)
+    if stage == "map":
+        monkeypatch.setattr(lumijax.report._falsecolour, "falsecolour_map", broken)
+    else:
+        monkeypatch.setattr(lumijax.report, "write_report", broken)
     cfg2 = write_study(box_room.replace("dimmer = 0.5", "dimmer = 0.1"), "other.toml")
     assert main(["run", str(cfg2), "--out", str(out)]) == 1
-    assert (out / "results.json").read_bytes() == before
-    assert not [p for p in out.rglob("*") if p.name.startswith(".")]
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.toml", "out", "study.toml"]
 
 
 def test_installed_entry_point_runs_as_a_process(box_room, write_study, tmp_path):
