@@ -2,13 +2,95 @@
 
 The picture is rendered on the server (VTK remote view) and streamed to the page; a slider per
 network and a realistic/false-colour switch are bound to :class:`DimmerViewer`.
+
+The viewer has no authentication: anyone who reaches the port sees the study and moves its
+dimmers. It therefore serves on the loopback address by default, warns when told to serve on
+another, and answers only requests whose ``Host`` (and ``Origin``, when the browser sends one)
+names the served address (:func:`request_allowed`): a page on another site cannot drive it from
+the user's browser, even through DNS rebinding.
 """
 
 from __future__ import annotations
 
-from ..errors import LumijaxError
+import ipaddress
+import socket
+import warnings
+from urllib.parse import urlsplit
 
-__all__ = ["serve", "web_app", "TrameMissing"]
+from ..errors import LumijaxError, LumijaxWarning
+
+__all__ = ["serve", "web_app", "TrameMissing", "allowed_hosts", "request_allowed"]
+
+_WILDCARDS = ("0.0.0.0", "::", "")
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def _netloc(name: str, port: int) -> str:
+    name = name.strip("[]").lower()
+    return f"[{name}]:{port}" if ":" in name else f"{name}:{port}"
+
+
+def allowed_hosts(host: str, port: int) -> frozenset[str]:
+    """The ``host:port`` values a request's ``Host`` may carry for a viewer served on
+    ``host:port``: the address itself, the loopback names when it is a loopback (or wildcard)
+    address, and this machine's name and addresses when it is a wildcard (0.0.0.0, ::)."""
+    names = {host}
+    if _is_loopback(host) or host in _WILDCARDS:
+        names |= {"localhost", "127.0.0.1", "::1"}
+    if host in _WILDCARDS:
+        names.discard(host)
+        try:
+            name, aliases, addrs = socket.gethostbyname_ex(socket.gethostname())
+            names |= {name, *aliases, *addrs, socket.gethostname(), socket.getfqdn()}
+        except OSError:  # no resolvable host name: the loopback names only
+            pass
+    return frozenset(_netloc(n, port) for n in names if n)
+
+
+def request_allowed(host_header: str | None, origin_header: str | None,
+                    allowed: frozenset[str]) -> bool:
+    """Whether a request with these ``Host`` and ``Origin`` headers may reach the viewer.
+
+    ``Host`` must be one of ``allowed`` (see :func:`allowed_hosts`); ``Origin``, when present,
+    must be ``http://`` or ``https://`` one of them too (``null`` and other sites are refused).
+    """
+    if not host_header:
+        return False
+    if _host_port(host_header) not in allowed:
+        return False
+    if origin_header is None:
+        return True  # not a browser's cross-origin request (curl, the page's own GET)
+    parts = urlsplit(origin_header.strip())
+    if parts.scheme not in ("http", "https") or not parts.netloc:
+        return False
+    return _host_port(parts.netloc, 443 if parts.scheme == "https" else 80) in allowed
+
+
+def _host_port(netloc: str, default: int = 80) -> str:
+    """``Host``/``Origin`` authority → ``name:port`` as :func:`allowed_hosts` spells it ("" if
+    malformed)."""
+    netloc = netloc.strip().lower()
+    if netloc.startswith("["):  # [v6]:port or [v6]
+        end = netloc.find("]")
+        if end < 0:
+            return ""
+        name, rest = netloc[1:end], netloc[end + 1 :]
+        port = rest[1:] if rest.startswith(":") else ""
+    elif netloc.count(":") == 1:
+        name, port = netloc.split(":")
+    else:
+        name, port = netloc, ""
+    if port and not port.isdigit():
+        return ""
+    return _netloc(name, int(port) if port else default)
 
 
 class TrameMissing(LumijaxError):
@@ -77,13 +159,41 @@ def web_app(viewer, *, name: str = "lumijax"):
 def serve(viewer, *, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False,
           **kwargs) -> None:
     """Serve the web viewer on ``http://host:port/`` (blocks until stopped); ``port=0`` picks
-    a free port. The address is printed as ``lumijax view: http://...`` once known."""
+    a free port. The address is printed as ``lumijax view: http://...`` once known.
+
+    A ``host`` other than a loopback address gives a :class:`LumijaxWarning` (no
+    authentication); requests whose ``Host`` or ``Origin`` do not name the served address are
+    answered 403 (:func:`request_allowed`).
+    """
+    if not _is_loopback(host):
+        warnings.warn(
+            f"serving the viewer on {host or 'every interface'} without authentication: anyone "
+            "who can reach this port can see the study and move its dimmers (the default, "
+            "--host 127.0.0.1, serves this machine only)", LumijaxWarning, stacklevel=2)
     server = web_app(viewer)
     if not port:
-        import socket
-
-        with socket.socket() as s:
+        with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as s:
             s.bind((host, 0))
             port = s.getsockname()[1]
-    print(f"lumijax view: http://{host}:{port}/", flush=True)
+    allowed = allowed_hosts(host, port)
+
+    def guard(wslink_server):  # trame hands over its aiohttp application before it starts
+        from aiohttp import web
+
+        @web.middleware
+        async def check(request, handler):
+            if not request_allowed(request.headers.get("Host"), request.headers.get("Origin"),
+                                   allowed):
+                return web.Response(status=403, text="lumijax view: this Host or Origin is not "
+                                    "the address the viewer serves\n")
+            return await handler(request)
+
+        try:
+            wslink_server.app.middlewares.append(check)
+        except (AttributeError, RuntimeError, TypeError):  # another backend, or a frozen app
+            warnings.warn("cannot install the Host/Origin check on this trame backend: the "
+                          "viewer answers any Host and Origin", LumijaxWarning, stacklevel=1)
+
+    server.controller.on_server_bind.add(guard)
+    print(f"lumijax view: http://{_netloc(host, port)}/", flush=True)
     server.start(host=host, port=port, open_browser=open_browser, **kwargs)
