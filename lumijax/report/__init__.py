@@ -19,7 +19,7 @@ from ._views import (
     write_png,
 )
 from ._vtk import write_patches_vtp
-from ._write import write_results
+from ._write import ResultSet, write_results
 
 __all__ = [
     "falsecolour_map", "lux_to_rgb", "nice_levels", "make_view", "DEFAULT_CMAP",
@@ -30,5 +30,5 @@ __all__ = [
     "fitting_colour", "beam_outline", "write_png",
     "polar_plot", "beam_angle_deg",
     "write_report", "report_context", "render_report", "grid_criteria",
-    "write_results", "write_patches_vtp",
+    "write_results", "write_patches_vtp", "ResultSet",
 ]
