@@ -20,7 +20,7 @@ from .lighting import LightingSolution, SolverSettings, solve_lighting
 from .results import GridResult, Results
 from .scene import Scene, build_scene
 
-__all__ = ["Study", "load_study", "compute", "solver_settings"]
+__all__ = ["Study", "load_study", "compute", "solver_settings", "check_memory"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +85,37 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
     )
     values.update(overrides)
     return SolverSettings(**values)
+
+
+def check_memory(study: Study):
+    """The up-front memory check of ``lumijax check``: mesh the scene as ``compute`` will and
+    bound its operator's memory (``lumijax.radiosity._estimate``) without building it.
+
+    Returns the :class:`~lumijax.radiosity._estimate.OperatorEstimate`, or ``None`` when the
+    study has no inter-reflection to build. Raises :class:`~lumijax.errors.SolveError` naming
+    the ``[solver]`` settings that would fit when it exceeds the available memory. Adaptive
+    refinement (``refine``) adds patches after direct light, so it is bounded here unrefined.
+    """
+    from .lighting._pipeline import _group_counts, _two_levels, auto_patch_size
+    from .radiosity import mesh_patches
+    from .radiosity._estimate import bound_operator_memory
+
+    settings = solver_settings(study)
+    tri = study.scene.triangles
+    if not settings.indirect or len(tri) == 0 or not study.scene.networks:
+        return None
+    size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
+    patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
+    patches, fine = _two_levels(patches, tri, size, settings.operator_patches)
+    itemsize = 8 if settings.precision == "float64" else 4
+    estimate, _ = bound_operator_memory(
+        patches, max_block=settings.max_block, itemsize=itemsize, caster=study.scene.raycaster,
+        triangles=len(tri), two_levels=fine is not None, file=study.config.source,
+        patch_size=None if fine is not None else size,
+        requested=settings.operator_patches if fine is not None else (
+            None if settings.patch_size else settings.target_patches),
+        remesh=lambda n: _group_counts(tri, n))
+    return estimate
 
 
 def compute(

@@ -104,7 +104,7 @@ def solve_lighting(
         return None if a is None else np.tensordot(to_net, a, axes=(1, 0))
 
     t = time.perf_counter()
-    direct_pts = direct_illuminance(gscene, points, normals, progress=stage("direct light"))
+    direct_pts = _direct_in_chunks(gscene, points, normals, stage("direct light"))
     timing["direct_points"] = time.perf_counter() - t
     stats["shadow_rays"] = direct_pts.shadow_rays
     point_direct = per_network(direct_pts.by_network)
@@ -139,6 +139,18 @@ def solve_lighting(
 
     t = time.perf_counter()
     dtype = np.float64 if settings.precision == "float64" else np.float32
+    # before any form factor: an operator that cannot fit is refused now, naming the settings
+    # that would fit, not after minutes of building (docs/radiosity.md, "Memory estimate")
+    from ..radiosity._estimate import bound_operator_memory
+
+    estimate, part = bound_operator_memory(
+        patches, max_block=settings.max_block, itemsize=np.dtype(dtype).itemsize,
+        caster=caster, triangles=len(tri), two_levels=fine is not None,
+        file=getattr(scene, "source", None), patch_size=None if fine is not None else size,
+        requested=settings.operator_patches if fine is not None else (
+            None if settings.patch_size else settings.target_patches),
+        remesh=lambda n: _group_counts(tri, n))
+    stats["operator_bytes_bound"] = int(estimate.stored_bytes)
     if cache_dir is not None:
         transport, hit = cached_operator(
             patches, tri.vertices, cache_dir=cache_dir, dtype=dtype, caster=caster,
@@ -146,7 +158,8 @@ def solve_lighting(
         )
         stats["operator_cache_hit"] = bool(hit)
     else:
-        part = partition(patches, max_block=settings.max_block, occluders=caster)
+        if part is None:
+            part = partition(patches, max_block=settings.max_block, occluders=caster)
         timing["partition"] = time.perf_counter() - t
         t = time.perf_counter()
         transport = build_operator(patches, part, caster, dtype=dtype,
@@ -172,7 +185,8 @@ def solve_lighting(
     timing["spectral_sampling"] = time.perf_counter() - t
     stats["spectral_samples"] = spectral.n
     t = time.perf_counter()
-    gather = build_gather(points, normals, patches, caster, rays=settings.gather_rays)
+    gather = _gather_in_chunks(points, normals, patches, caster, settings.gather_rays,
+                               stage("gathering onto grids"))
     timing["gather_rays"] = time.perf_counter() - t
 
     k = len(scene.networks)
@@ -219,6 +233,62 @@ def solve_lighting(
         point_indirect=per_network(shot.point_indirect), point_xyz=per_network(shot.point_xyz),
         stats={**stats, "timing_s": timing}, **two,
     )
+
+
+#: Grid points per chunk of direct light and gathering on a large grid: each chunk reports
+#: progress (a 10⁷-point grid in ~80 steps), and one chunk's rays and pairs stay in memory.
+POINT_CHUNK = 1 << 17
+
+
+def _direct_in_chunks(scene, points, normals, report):
+    """Direct light on the grid points; above :data:`POINT_CHUNK` points in chunks that report
+    ``(points done, points)``, below it as one call reporting sources (unchanged results)."""
+    n = len(points)
+    if n <= POINT_CHUNK:
+        return direct_illuminance(scene, points, normals, progress=report)
+    parts = []
+    report(0, n)
+    for s in range(0, n, POINT_CHUNK):
+        parts.append(direct_illuminance(scene, points[s:s + POINT_CHUNK],
+                                        normals[s:s + POINT_CHUNK]))
+        report(min(s + POINT_CHUNK, n), n)
+    timing = {}
+    for d in parts:
+        for key, v in d.timing_s.items():
+            timing[key] = timing.get(key, 0.0) + v
+    return dataclasses.replace(
+        parts[0], by_network=np.concatenate([d.by_network for d in parts], axis=1),
+        shadow_rays=sum(d.shadow_rays for d in parts),
+        candidate_pairs=sum(d.candidate_pairs for d in parts), timing_s=timing)
+
+
+def _gather_in_chunks(points, normals, patches, caster, rays, report):
+    """The grid points' gather; above :data:`POINT_CHUNK` points in chunks (a seed per
+    chunk: the same statistics, not the same rays) that report ``(points done, points)``."""
+    n = len(points)
+    if n <= POINT_CHUNK:
+        return build_gather(points, normals, patches, caster, rays=rays)
+    parts = []
+    report(0, n)
+    for i, s in enumerate(range(0, n, POINT_CHUNK)):
+        g = build_gather(points[s:s + POINT_CHUNK], normals[s:s + POINT_CHUNK], patches, caster,
+                         rays=rays, seed=i)
+        parts.append(dataclasses.replace(g, point=g.point + np.int32(s)))
+        report(min(s + POINT_CHUNK, n), n)
+    return dataclasses.replace(
+        parts[0], n_points=n, point=np.concatenate([g.point for g in parts]),
+        patch=np.concatenate([g.patch for g in parts]),
+        weight=np.concatenate([g.weight for g in parts]))
+
+
+def _group_counts(tri, target_patches: int) -> np.ndarray:
+    """Patches per group of the mesh made for ``target_patches`` (the memory check's way to
+    try a setting without building anything on it)."""
+    from ..radiosity import mesh_patches
+
+    size = auto_patch_size(float(tri.areas.sum()), target_patches)
+    return np.unique(mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size).group,
+                     return_counts=True)[1]
 
 
 def _two_levels(patches, tri, size: float, operator_patches: int | None):
