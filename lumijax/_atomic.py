@@ -23,7 +23,7 @@ from .errors import OutputError
 
 __all__ = [
     "FolderLock", "atomic_path", "atomic_write_bytes", "atomic_write_text", "exchange_paths",
-    "file_mode", "fsync_dir", "fsync_tree", "pid_alive", "remove_orphans",
+    "file_mode", "fsync_dir", "fsync_tree", "is_temporary", "pid_alive", "remove_orphans",
 ]
 
 _TMP_TAG = ".lumijax-tmp-"
@@ -43,6 +43,11 @@ def pid_alive(pid: int) -> bool:
     except OSError:  # e.g. Windows, where signal 0 is not a probe: assume alive (keep the file)
         return True
     return True
+
+
+def is_temporary(name: str) -> bool:
+    """Whether ``name`` is one of :func:`atomic_path`'s temporary files."""
+    return name.startswith(".") and _TMP_RE.search(name) is not None
 
 
 def remove_orphans(folder: str | Path) -> list[Path]:
@@ -141,6 +146,7 @@ class FolderLock:
             return self
         while True:
             try:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0),
                              0o644)
             except OSError as e:

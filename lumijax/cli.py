@@ -122,7 +122,7 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
 def _report(config: Path, out: Path, *, pictures: bool, console) -> int:
     """Compute the study as configured (the operator cache makes this quick) and write
     ``report.html``; ``lumijax run`` writes the same report after results and optimisation."""
-    from ._atomic import FolderLock
+    from ._atomic import FolderLock, is_temporary, remove_orphans
     from ._study import compute, load_study
     from .report import write_report
     from .report._write import KEPT_NAMES, SET_NAMES
@@ -131,9 +131,10 @@ def _report(config: Path, out: Path, *, pictures: bool, console) -> int:
     # report.html alone is replaced (one atomic rename), under the folder's lock; the rest of
     # a run's set, if any, stays as it was (docs/results.md, "Atomic writing")
     with FolderLock(out):
+        remove_orphans(out)  # a report temporary of a killed run
         if out.is_dir() and (names := sorted(
                 p.name for p in out.iterdir() if p.name not in SET_NAMES
-                and p.name not in KEPT_NAMES and not p.name.startswith(".report.html"))):
+                and p.name not in KEPT_NAMES and not is_temporary(p.name))):
             from .errors import OutputError
 
             raise OutputError(f"holds {names[0]!r}, which lumijax did not write; give an empty "

@@ -24,7 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import FolderLock, exchange_paths, file_mode, fsync_dir, fsync_tree
+from .._atomic import (
+    FolderLock,
+    exchange_paths,
+    file_mode,
+    fsync_dir,
+    fsync_tree,
+    is_temporary,
+    remove_orphans,
+)
 from ..errors import LumijaxError, OutputError
 from ..results import Results
 
@@ -114,12 +122,15 @@ class ResultSet:
             olds.remove(newest)
         for p in olds + self._siblings("staging"):
             shutil.rmtree(p, ignore_errors=True)
+        if self.out.is_dir():
+            remove_orphans(self.out)  # e.g. a report.html temporary of a killed `lumijax report`
 
     def _check_ours(self) -> None:
         if not self.out.is_dir():
             return
         for p in self.out.iterdir():
-            if p.name in SET_NAMES or p.name in KEPT_NAMES or p.name.startswith(".staging-"):
+            if (p.name in SET_NAMES or p.name in KEPT_NAMES or p.name.startswith(".staging-")
+                    or is_temporary(p.name)):
                 continue  # (.staging-*: what lumijax < 0.2 left inside the folder)
             raise OutputError(f"holds {p.name!r}, which lumijax did not write: a run replaces "
                               "the whole folder, so give an empty or a new --out", file=self.out)
@@ -240,7 +251,7 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         if lighting is not None and lighting.patches is not None:
             from ._vtk import write_patches_vtp
 
-            write_patches_vtp(lighting, results.design.dimmers, staging / "patches.vtp")
+            write_patches_vtp(lighting, lighting.scene.dimmers, staging / "patches.vtp")
             written.append("patches.vtp")
             _step("wrote patches.vtp")
     except OSError as e:

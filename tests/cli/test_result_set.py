@@ -213,3 +213,21 @@ def test_a_new_folder_and_its_parents_are_created(tmp_path):
     out = tmp_path / "deep" / "er" / "out"
     write_results(Stub(1.0), out, images=False)
     assert sorted(p.name for p in out.parent.iterdir()) == ["out"]
+
+
+def test_a_killed_report_writers_temporary_is_removed_not_refused(tmp_path):
+    out = tmp_path / "out"
+    write_results(Stub(0.5), out, images=False)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    orphan = out / f".report.html.lumijax-tmp-{dead}-x1y2.html"
+    orphan.write_text("half a report")
+    write_results(Stub(0.25), out, images=False)
+    assert _set_dimmer(_snapshot(out)) == 0.25 and not orphan.exists()
+
+
+def test_parent_folders_of_a_locked_folder_are_created(tmp_path):
+    out = tmp_path / "a" / "b" / "out"
+    with FolderLock(out):
+        assert (tmp_path / "a" / "b" / "out.lock").read_text() == f"{os.getpid()}\n"
+    assert sorted(p.name for p in (tmp_path / "a" / "b").iterdir()) == []
