@@ -47,12 +47,31 @@ def allowed_hosts(host: str, port: int) -> frozenset[str]:
         names |= {"localhost", "127.0.0.1", "::1"}
     if host in _WILDCARDS:
         names.discard(host)
+        names |= {socket.gethostname(), _LOCAL_IP}
         try:
             name, aliases, addrs = socket.gethostbyname_ex(socket.gethostname())
-            names |= {name, *aliases, *addrs, socket.gethostname(), socket.getfqdn()}
-        except OSError:  # no resolvable host name: the loopback names only
+            names |= {name, *aliases, *addrs, socket.getfqdn()}
+        except OSError:  # no resolvable host name: the names above only
             pass
     return frozenset(_netloc(n, port) for n in names if n)
+
+
+_LOCAL_IP = "local-ip"  # in allowed_hosts: any IP literal that is an address of this machine
+
+
+def _is_local_ip(name: str) -> bool:
+    """Whether ``name`` is an IP literal of one of this machine's interfaces (it can be bound).
+    Only literals: a DNS name (the rebinding attack's) is never resolved here."""
+    try:
+        ip = ipaddress.ip_address(name.strip("[]"))
+    except ValueError:
+        return False
+    try:
+        with socket.socket(socket.AF_INET6 if ip.version == 6 else socket.AF_INET) as s:
+            s.bind((str(ip), 0))
+    except OSError:
+        return False
+    return True
 
 
 def request_allowed(host_header: str | None, origin_header: str | None,
@@ -62,16 +81,21 @@ def request_allowed(host_header: str | None, origin_header: str | None,
     ``Host`` must be one of ``allowed`` (see :func:`allowed_hosts`); ``Origin``, when present,
     must be ``http://`` or ``https://`` one of them too (``null`` and other sites are refused).
     """
-    if not host_header:
-        return False
-    if _host_port(host_header) not in allowed:
+    if not host_header or not _allowed(_host_port(host_header), allowed):
         return False
     if origin_header is None:
         return True  # not a browser's cross-origin request (curl, the page's own GET)
     parts = urlsplit(origin_header.strip())
     if parts.scheme not in ("http", "https") or not parts.netloc:
         return False
-    return _host_port(parts.netloc, 443 if parts.scheme == "https" else 80) in allowed
+    return _allowed(_host_port(parts.netloc, 443 if parts.scheme == "https" else 80), allowed)
+
+
+def _allowed(netloc: str, allowed: frozenset[str]) -> bool:
+    if netloc in allowed:
+        return True
+    name, _, port = netloc.rpartition(":")
+    return bool(name) and f"{_LOCAL_IP}:{port}" in allowed and _is_local_ip(name)
 
 
 def _host_port(netloc: str, default: int = 80) -> str:

@@ -44,6 +44,12 @@ def test_every_interface_allows_this_machine_but_not_other_names():
     every = allowed_hosts("0.0.0.0", 9000)
     assert {"127.0.0.1:9000", "localhost:9000"} <= every and "0.0.0.0:9000" not in every
     assert not request_allowed("evil.example:9000", None, every)
+    # an address of this machine (one it can bind) is allowed by its literal, one it cannot
+    # bind (TEST-NET-3, RFC 5737: never assigned) is not
+    assert request_allowed("127.0.0.2:9000", "http://127.0.0.2:9000", every)
+    assert not request_allowed("203.0.113.7:9000", None, every)
+    assert not request_allowed("127.0.0.2:9001", None, every)
+    assert not request_allowed("127.0.0.2:9000", None, LOCAL)  # only for a wildcard
 
 
 class _Served(Exception):
