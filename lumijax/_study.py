@@ -11,12 +11,12 @@ from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 
-import jax
 import numpy as np
 
 from .config import StudyConfig, load_config
 from .design import Design
 from .lighting import LightingSolution, SolverSettings, solve_lighting
+from .lighting._solution import float64_scope
 from .results import GridResult, Results
 from .scene import Scene, build_scene
 
@@ -161,17 +161,17 @@ def compute(
     if not shadows:
         overrides["indirect"] = False
     settings = solver_settings(study, **overrides)
-    if settings.precision == "float64":
-        jax.config.update("jax_enable_x64", True)
     if not study.config.solver.cache:
         cache_dir = None
     elif cache_dir is None and study.config.source is not None:
         cache_dir = study.config.source.parent / ".lumijax-cache"
-    if shadows:
-        lighting = solve_lighting(sc, points, normals, settings, progress=progress,
-                                  cache_dir=cache_dir)
-    else:
-        lighting = _unshadowed(sc, points, normals, progress)
+    # a float64 study is solved in JAX's x64 mode, not by flipping it for the whole process
+    with float64_scope(settings.precision == "float64"):
+        if shadows:
+            lighting = solve_lighting(sc, points, normals, settings, progress=progress,
+                                      cache_dir=cache_dir)
+        else:
+            lighting = _unshadowed(sc, points, normals, progress)
     total = lighting.point_total
     names = sc.network_names
     design = Design.of(sc)

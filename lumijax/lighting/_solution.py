@@ -14,13 +14,21 @@ Light adds linearly, so each network k is solved once at dimmer 1 and any dimmer
 
 Changing one luminaire re-shoots only its difference (paper section 6): see
 :meth:`LightingSolution.replace_luminaire`.
+
+A solution holds its light on patches as :class:`Level` records: ``coarse``, the operator's
+patches (elements), and ``fine``, the finer patches a two-level solve gathered from them
+(docs/radiosity.md, "Two levels"; None with one level). The flat names of before
+(``sol.radiosity``, ``sol.fine_patches``, ...) remain as read-only properties and constructor
+keywords during the transition.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -31,10 +39,84 @@ from ..direct import direct_illuminance
 from ..radiosity._gather import GatherOperator
 from ._spectral import SpectralSetup
 
-__all__ = ["LightingSolution"]
+if TYPE_CHECKING:
+    from ..radiosity import Patches, TransportOperator
+    from ..scene import Scene
+    from ..spectral import Spectrum
+
+__all__ = ["LightingSolution", "Level", "float64_scope"]
+
+
+@contextlib.contextmanager
+def float64_scope(enable: bool = True):
+    """JAX's x64 mode for the duration (``with`` or as a decorator), for float64 work only.
+
+    JAX makes float64 arrays only with x64 on; lumijax does not flip that global setting as a
+    side effect of ``compute`` or ``optimise`` (docs/conventions.md, "Precision"). A float64
+    study is computed, and a fit runs, inside this scope; the arrays it makes stay float64
+    and carry the precision after it (``transport.area.dtype``). ``enable=False`` leaves the
+    caller's setting alone (a float32 study under a user's x64 runs as it always has).
+    """
+    if not enable:
+        yield
+        return
+    with jax.enable_x64(True):
+        yield
 
 
 @dataclass(frozen=True, eq=False)
+class Level:
+    """Light on one level of patches, per network at dimmer 1.
+
+    Attributes
+    ----------
+    patches
+        The :class:`lumijax.radiosity.Patches` (None: no inter-reflection was computed).
+    gather
+        Coarse level: the patches → calculation points gather; fine level: the sparse map from
+        the elements' radiosity to fine-patch irradiance (lx).
+    rho
+        Coarse: ``(patches,)`` luminous reflectance; fine: ``(fine, W)`` reflectance at the
+        solve's sample wavelengths (dimensionless).
+    patch_direct
+        ``(networks, patches)`` direct irradiance (lx).
+    radiosity
+        ``(networks, patches)`` luminous radiosity B (lm/m²): reflected direct plus all bounces.
+    radiosity_xyz
+        ``(networks, 3, patches)`` CIE XYZ of the radiosity (Y = ``radiosity``), or None.
+    patch_indirect
+        ``(networks, patches)`` gathered inter-reflected irradiance (lx) of a fine level; None
+        on the coarse level, where it is ``F·B`` (:meth:`LightingSolution.patch_illuminance`).
+    """
+
+    patches: Patches | None
+    gather: GatherOperator | None
+    rho: np.ndarray | None
+    patch_direct: Float[np.ndarray, "net patches"]
+    radiosity: Float[np.ndarray, "net patches"]
+    radiosity_xyz: Float[np.ndarray, "net 3 patches"] | None = None
+    patch_indirect: Float[np.ndarray, "net patches"] | None = None
+
+
+# The flat constructor keywords and attributes of before, by level and Level field.
+_COARSE = {"patches": "patches", "gather": "gather", "rho": "rho",
+           "patch_direct": "patch_direct", "radiosity": "radiosity",
+           "radiosity_xyz": "radiosity_xyz"}
+_FINE = {"fine_patches": "patches", "fine_gather": "gather", "fine_rho": "rho",
+         "fine_patch_direct": "patch_direct", "fine_patch_indirect": "patch_indirect",
+         "fine_radiosity": "radiosity", "fine_radiosity_xyz": "radiosity_xyz"}
+
+
+def _forward(level: str, name: str):
+    def get(self):
+        lv = getattr(self, level)
+        return None if lv is None else getattr(lv, name)
+
+    get.__doc__ = f"``{level}.{name}`` (the flat name of before)."
+    return property(get)
+
+
+@dataclass(frozen=True, eq=False, init=False)
 class LightingSolution:
     """Per-network light on patches and calculation points, at dimmer 1.
 
@@ -43,89 +125,120 @@ class LightingSolution:
     scene
         The :class:`lumijax.scene.Scene` solved.
     points, normals
-        The calculation points of all grids, concatenated in grid order.
-    patches, transport, gather, spectral
-        Radiosity patches, form factors, the patches → points gather map and the spectral
-        set-up (all ``None`` when inter-reflection is off or the scene has no surfaces).
-    rho
-        Luminous reflectance per patch (dimensionless).
-    patch_direct
-        ``(networks, patches)`` direct irradiance on the patches (lx).
-    radiosity
-        ``(networks, patches)`` luminous radiosity B (lm/m²): reflected direct plus all bounces.
-    radiosity_xyz
-        ``(networks, 3, patches)`` CIE XYZ of the radiosity (Y = ``radiosity``), or None.
+        The calculation points of all grids, concatenated in grid order (m; unit normals).
+    coarse
+        Light on the operator's patches (:class:`Level`; no patches when inter-reflection is
+        off or the scene has no surfaces).
+    fine
+        Light on the fine patches of a two-level solve, or None (one level).
+    transport, spectral
+        Form factors and the spectral set-up (None when inter-reflection is off).
     point_direct, point_indirect
         ``(networks, points)`` direct and inter-reflected illuminance (lx).
     point_xyz
         ``(networks, 3, points)`` CIE XYZ of the total illuminance (Y in lx), or None.
+    solve_method, solve_tolerance, solve_max_steps
+        The ``[solver]`` settings an incremental re-shot solves with.
     """
 
-    scene: object
+    scene: Scene
     points: Float[np.ndarray, "points 3"]
     normals: Float[np.ndarray, "points 3"]
-    patches: object | None
-    transport: object | None
-    gather: GatherOperator | None
+    coarse: Level
+    transport: TransportOperator | None
     spectral: SpectralSetup | None
-    rho: Float[np.ndarray, " patches"] | None
-    patch_direct: Float[np.ndarray, "net patches"]
-    radiosity: Float[np.ndarray, "net patches"]
-    radiosity_xyz: Float[np.ndarray, "net 3 patches"] | None
     point_direct: Float[np.ndarray, "net points"]
     point_indirect: Float[np.ndarray, "net points"]
     point_xyz: Float[np.ndarray, "net 3 points"] | None
-    solve_method: str = "bicgstab"
+    solve_method: str = "refined"  # [solver] method
     solve_tolerance: float | None = None
     solve_max_steps: int = 1000
     stats: dict = field(default_factory=dict)
-    # Two-level solve (docs/radiosity.md, "Two levels"): the fields above are the operator's
-    # elements; these are the fine patches that gathered from them (None: one level).
-    fine_patches: object | None = None
-    fine_gather: GatherOperator | None = None
-    fine_rho: Float[np.ndarray, "fine w"] | None = None
-    fine_patch_direct: Float[np.ndarray, "net fine"] | None = None
-    fine_patch_indirect: Float[np.ndarray, "net fine"] | None = None
-    fine_radiosity: Float[np.ndarray, "net fine"] | None = None
-    fine_radiosity_xyz: Float[np.ndarray, "net 3 fine"] | None = None
+    fine: Level | None = None
+
+    def __init__(self, scene: Scene, points, normals, coarse: Level | None = None,
+                 transport: TransportOperator | None = None,
+                 spectral: SpectralSetup | None = None, point_direct=None,
+                 point_indirect=None, point_xyz=None, solve_method: str = "refined",
+                 solve_tolerance: float | None = None, solve_max_steps: int = 1000,
+                 stats: dict | None = None, fine: Level | None = None, **flat: Any):
+        # ``flat``: the level fields by their flat names of before (``radiosity=``,
+        # ``fine_patches=``); they override ``coarse``/``fine``, so dataclasses.replace with a
+        # flat name changes that level's field
+        unknown = set(flat) - set(_COARSE) - set(_FINE)
+        if unknown:
+            raise TypeError(f"LightingSolution got unexpected keywords {sorted(unknown)}")
+        coarse = _merge(coarse, {_COARSE[k]: v for k, v in flat.items() if k in _COARSE})
+        if coarse is None:
+            raise TypeError("LightingSolution needs the coarse level (coarse= or its fields)")
+        fine = _merge(fine, {_FINE[k]: v for k, v in flat.items() if k in _FINE})
+        if fine is not None and fine.patches is None:
+            fine = None  # fine_patches=None: one level
+        values = dict(scene=scene, points=points, normals=normals, coarse=coarse,
+                      transport=transport, spectral=spectral, point_direct=point_direct,
+                      point_indirect=point_indirect, point_xyz=point_xyz,
+                      solve_method=solve_method, solve_tolerance=solve_tolerance,
+                      solve_max_steps=solve_max_steps, stats={} if stats is None else stats,
+                      fine=fine)
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    patches = _forward("coarse", "patches")
+    gather = _forward("coarse", "gather")
+    rho = _forward("coarse", "rho")
+    patch_direct = _forward("coarse", "patch_direct")
+    radiosity = _forward("coarse", "radiosity")
+    radiosity_xyz = _forward("coarse", "radiosity_xyz")
+    fine_patches = _forward("fine", "patches")
+    fine_gather = _forward("fine", "gather")
+    fine_rho = _forward("fine", "rho")
+    fine_patch_direct = _forward("fine", "patch_direct")
+    fine_patch_indirect = _forward("fine", "patch_indirect")
+    fine_radiosity = _forward("fine", "radiosity")
+    fine_radiosity_xyz = _forward("fine", "radiosity_xyz")
+
+    @property
+    def display(self) -> Level:
+        """The level to show and write: the fine one of a two-level solve, else the coarse."""
+        return self.coarse if self.fine is None else self.fine
 
     @property
     def display_patches(self):
         """The patches to show and write: the fine ones of a two-level solve, else the elements."""
-        return self.fine_patches if self.fine_patches is not None else self.patches
+        return self.display.patches
 
     @property
     def display_radiosity(self) -> Float[np.ndarray, "net patches"]:
         """``(networks, display patches)`` luminous radiosity (lm/m²) at dimmer 1."""
-        return self.fine_radiosity if self.fine_patches is not None else self.radiosity
+        return self.display.radiosity
 
     @property
     def display_radiosity_xyz(self) -> Float[np.ndarray, "net 3 patches"] | None:
         """``(networks, 3, display patches)`` CIE XYZ of the radiosity, or None."""
-        return self.fine_radiosity_xyz if self.fine_patches is not None else self.radiosity_xyz
+        return self.display.radiosity_xyz
 
     @property
     def display_patch_direct(self) -> Float[np.ndarray, "net patches"]:
         """``(networks, display patches)`` direct irradiance (lx)."""
-        return self.fine_patch_direct if self.fine_patches is not None else self.patch_direct
+        return self.display.patch_direct
 
     @property
     def display_rho(self) -> Float[np.ndarray, " patches"] | None:
         """Luminous reflectance of the display patches."""
-        if self.fine_patches is None:
-            return self.rho
+        if self.fine is None:
+            return self.coarse.rho
         return np.array([m.luminous_reflectance for m in self.scene.materials])[
-            self.fine_patches.material]
+            self.fine.patches.material]
 
     def display_patch_illuminance(self) -> Float[np.ndarray, "net patches"]:
         """Irradiance on each display patch per network (lx): direct + inter-reflected."""
-        if self.fine_patches is None:
+        if self.fine is None:
             return self.patch_illuminance()
-        return self.fine_patch_direct + self.fine_patch_indirect
+        return self.fine.patch_direct + self.fine.patch_indirect
 
     def display_radiosity_at(self, dimmers) -> Float[np.ndarray, " patches"]:
         """Radiosity of the display patches at any dimmer vector (lm/m²), exact, no solve."""
-        return np.asarray(dimmers, np.float64) @ self.display_radiosity
+        return np.asarray(dimmers, np.float64) @ self.display.radiosity
 
     @property
     def point_total(self) -> Float[np.ndarray, "net points"]:
@@ -134,14 +247,16 @@ class LightingSolution:
 
     def radiosity_at(self, dimmers) -> Float[np.ndarray, " patches"]:
         """B = Σ α_k B_k (lm/m²): exact for any dimmer vector, no solve."""
-        return np.asarray(dimmers, np.float64) @ self.radiosity
+        return np.asarray(dimmers, np.float64) @ self.coarse.radiosity
 
     def patch_illuminance(self) -> Float[np.ndarray, "net patches"]:
         """Irradiance on each patch per network (lx): direct + F·B (luminous)."""
         if self.transport is None:
-            return self.patch_direct
-        fb = np.asarray(self.transport.matmul(jnp.asarray(self.radiosity.T, _dtype()))).T
-        return self.patch_direct + fb
+            return self.coarse.patch_direct
+        with float64_scope(_float64(self)):
+            b = jnp.asarray(self.coarse.radiosity.T, _dtype(self))
+            fb = np.asarray(self.transport.matmul(b)).T
+        return self.coarse.patch_direct + fb
 
     def replace_luminaire(self, index: int, luminaire) -> LightingSolution:
         """The solution with luminaire ``index`` replaced (moved, re-aimed, re-lamped, …).
@@ -149,9 +264,13 @@ class LightingSolution:
         Only the difference is re-shot: the old and new luminaire's direct light on patches and
         points (that luminaire's candidate pairs only), one solve of ``(I − ρF) ΔB = ρ ΔE``
         over the sample wavelengths (one column per wavelength when network and spectrum stay,
-        two otherwise), and one gather. The result equals a full re-solve up to the solver's tolerance. The network
-        and the spectrum may change too.
+        two otherwise), and one gather. The result equals a full re-solve up to the solver's
+        tolerance. The network and the spectrum may change too.
         """
+        with float64_scope(_float64(self)):
+            return self._replace_luminaire(index, luminaire)
+
+    def _replace_luminaire(self, index: int, luminaire) -> LightingSolution:
         sc = self.scene
         old = sc.luminaires[index]
         lums = list(sc.luminaires)
@@ -159,64 +278,103 @@ class LightingSolution:
         new_scene = dataclasses.replace(sc, luminaires=tuple(lums))
         names = sc.network_names
         t0 = time.perf_counter()
-        upd = {name: np.array(getattr(self, name), copy=True) for name in (
-            "patch_direct", "radiosity", "point_direct", "point_indirect")}
-        for name in ("radiosity_xyz", "point_xyz", "fine_patch_direct", "fine_patch_indirect",
-                     "fine_radiosity", "fine_radiosity_xyz"):
-            arr = getattr(self, name)
-            upd[name] = None if arr is None else arr.copy()
+        coarse, fine = _copy(self.coarse), None if self.fine is None else _copy(self.fine)
+        point_direct, point_indirect = self.point_direct.copy(), self.point_indirect.copy()
+        point_xyz = None if self.point_xyz is None else self.point_xyz.copy()
         # direct light of the old and new luminaire alone (its candidate pairs only)
-        rows = []
+        deltas = []
         for lum, sign in ((old, -1.0), (luminaire, 1.0)):
             one = dataclasses.replace(
                 sc, luminaires=(dataclasses.replace(lum, network=names[0]),), area_sources=())
             e_pts = sign * direct_illuminance(one, self.points, self.normals).by_network[0]
-            e_fine = None if self.fine_patches is None else sign * direct_illuminance(
-                one, self.fine_patches.centroid, self.fine_patches.normal).by_network[0]
+            e_fine = None if self.fine is None else sign * direct_illuminance(
+                one, self.fine.patches.centroid, self.fine.patches.normal).by_network[0]
             if e_fine is not None:  # two levels: the elements' direct is the fine flux's mean
                 from ..radiosity._final_gather import element_means
 
-                e_patch = element_means(self.fine_patches, self.patches, e_fine[None])[0][0]
+                e_patch = element_means(self.fine.patches, self.coarse.patches,
+                                        e_fine[None])[0][0]
             else:
-                e_patch = None if self.patches is None else sign * direct_illuminance(
-                    one, self.patches.centroid, self.patches.normal).by_network[0]
-            rows.append([names.index(lum.network), lum.spectrum, e_pts, e_patch, e_fine])
+                e_patch = None if self.coarse.patches is None else sign * direct_illuminance(
+                    one, self.coarse.patches.centroid, self.coarse.patches.normal).by_network[0]
+            deltas.append(_Delta(names.index(lum.network), lum.spectrum, e_pts, e_patch, e_fine))
         # same network and spectrum: one difference row, so one solve of W columns, not two
-        if rows[0][0] == rows[1][0] and rows[0][1] is rows[1][1]:
-            rows = [[rows[0][0], rows[0][1], rows[0][2] + rows[1][2],
-                     None if self.patches is None else rows[0][3] + rows[1][3],
-                     None if self.fine_patches is None else rows[0][4] + rows[1][4]]]
-        for k, _, e_pts, e_patch, _fine in rows:
-            upd["point_direct"][k] += e_pts
-            if e_patch is not None:
-                upd["patch_direct"][k] += e_patch
-        if self.patches is not None:
-            shot = shoot(self, np.stack([r[3] for r in rows]), [r[1] for r in rows],
-                         np.stack([r[2] for r in rows]))
-            for q, (k, *_rest) in enumerate(rows):
-                upd["radiosity"][k] += shot.radiosity[q]
-                upd["point_indirect"][k] += shot.point_indirect[q]
-                if upd["point_xyz"] is not None:
-                    upd["radiosity_xyz"][k] += shot.radiosity_xyz[q]
-                    upd["point_xyz"][k] += shot.point_xyz[q]
-            if self.fine_patches is not None:
+        a, b = deltas
+        if a.network == b.network and a.spectrum is b.spectrum:
+            deltas = [_Delta(a.network, a.spectrum, a.points + b.points,
+                             None if a.patches is None else a.patches + b.patches,
+                             None if a.fine is None else a.fine + b.fine)]
+        for d in deltas:
+            point_direct[d.network] += d.points
+            if d.patches is not None:
+                coarse.patch_direct[d.network] += d.patches
+        if self.coarse.patches is not None:
+            shot = shoot(self, np.stack([d.patches for d in deltas]),
+                         [d.spectrum for d in deltas], np.stack([d.points for d in deltas]))
+            for q, d in enumerate(deltas):
+                coarse.radiosity[d.network] += shot.radiosity[q]
+                point_indirect[d.network] += shot.point_indirect[q]
+                if point_xyz is not None:
+                    coarse.radiosity_xyz[d.network] += shot.radiosity_xyz[q]
+                    point_xyz[d.network] += shot.point_xyz[q]
+            if fine is not None:
                 from ..radiosity._final_gather import reflect_onto_fine
 
                 rb, rxyz, rind = reflect_onto_fine(
-                    self.fine_gather, self.fine_rho, np.stack([r[4] for r in rows]),
-                    [self.spectral.weights(r[1]) for r in rows], shot.value)
-                for q, (k, *_rest) in enumerate(rows):
-                    upd["fine_patch_direct"][k] += rows[q][4]
-                    upd["fine_patch_indirect"][k] += rind[q]
-                    upd["fine_radiosity"][k] += rb[q]
-                    if upd["fine_radiosity_xyz"] is not None:
-                        upd["fine_radiosity_xyz"][k] += rxyz[q]
+                    fine.gather, fine.rho, np.stack([d.fine for d in deltas]),
+                    [self.spectral.weights(d.spectrum) for d in deltas], shot.value)
+                for q, d in enumerate(deltas):
+                    fine.patch_direct[d.network] += d.fine
+                    fine.patch_indirect[d.network] += rind[q]
+                    fine.radiosity[d.network] += rb[q]
+                    if fine.radiosity_xyz is not None:
+                        fine.radiosity_xyz[d.network] += rxyz[q]
         stats = dict(self.stats, incremental_s=time.perf_counter() - t0)
-        return dataclasses.replace(self, scene=new_scene, stats=stats, **upd)
+        return dataclasses.replace(self, scene=new_scene, coarse=coarse, fine=fine,
+                                   point_direct=point_direct, point_indirect=point_indirect,
+                                   point_xyz=point_xyz, stats=stats)
 
 
-def _dtype():
-    return jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
+class _Delta(NamedTuple):
+    """The change one luminaire makes: its network's index, spectrum and direct light (lx) on
+    the points, the coarse patches and the fine patches (None where that level is absent)."""
+
+    network: int
+    spectrum: Spectrum | None
+    points: np.ndarray
+    patches: np.ndarray | None
+    fine: np.ndarray | None
+
+
+def _merge(level: Level | None, fields: dict) -> Level | None:
+    if not fields:
+        return level
+    if level is None:
+        return Level(**{"patches": None, "gather": None, "rho": None, "patch_direct": None,
+                        "radiosity": None, **fields})
+    return dataclasses.replace(level, **fields)
+
+
+def _copy(level: Level) -> Level:
+    """The level with its per-network arrays copied (updated in place by a re-shot)."""
+    def c(a):
+        return None if a is None else np.array(a, copy=True)
+
+    return dataclasses.replace(level, patch_direct=c(level.patch_direct),
+                               radiosity=c(level.radiosity),
+                               radiosity_xyz=c(level.radiosity_xyz),
+                               patch_indirect=c(level.patch_indirect))
+
+
+def _dtype(sol: LightingSolution):
+    """The precision the solution was solved in, carried by its operator's arrays."""
+    if sol.transport is None:
+        return jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
+    return sol.transport.area.dtype
+
+
+def _float64(sol: LightingSolution) -> bool:
+    return sol.transport is not None and sol.transport.area.dtype == np.float64
 
 
 @dataclass(frozen=True)
@@ -248,10 +406,10 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     weights = [sp.weights(s) for s in spectra]
     s = np.stack([w[0] for w in weights])  # (src, W)
     h = np.stack([w[1] for w in weights])  # (src, 3, W)
-    dtype = _dtype()
+    dtype = _dtype(sol)
     rho = jnp.asarray(sp.rho, dtype)  # (P, W)
     b0 = rho[:, None, :] * jnp.asarray(np.asarray(patch_direct).T[:, :, None] * s[None], dtype)
-    res = solve_radiosity(sol.transport, rho[:, None, :], b0, method=sol.solve_method,
+    res = solve_radiosity(sol.transport, rho[:, None, :], b0, solver=sol.solve_method,
                           rtol=sol.solve_tolerance, max_steps=sol.solve_max_steps)
     b = np.asarray(res.value, np.float64)  # (P, src, W)
     t1 = time.perf_counter()

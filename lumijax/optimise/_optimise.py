@@ -8,12 +8,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..design import Design, traverse
 from ..errors import ConfigError, LumijaxError, OutputError
+from ..lighting._solution import float64_scope
 from ..results import CRITERIA_SLACK, grid_stats
 from ._models import DimmerLight, build_aim_light
 from ._objective import Objective
@@ -147,6 +147,7 @@ def _aim_range(cfg, lum_cfg, ocfg):
     return out
 
 
+@float64_scope()  # the fit runs in float64 (docs/optimise.md), x64 mode for its duration only
 def optimise(study, results, *, cache_dir: str | Path | None = None, **overrides) -> Optimisation:
     """Fit the study's dimmers (and aims, levels) to its grids' goals.
 
@@ -177,7 +178,6 @@ def optimise(study, results, *, cache_dir: str | Path | None = None, **overrides
     if not goals and ocfg.max_luminance_cdm2 is None and ocfg.energy_weight == 0:
         raise ConfigError("nothing to optimise: no grid has a target or a limit",
                           file=cfg.source, key="optimise")
-    jax.config.update("jax_enable_x64", True)  # the fit runs in float64 (docs/optimise.md)
     names = sc.network_names
     flux = sc.network_flux_lm()
     power = np.array([
