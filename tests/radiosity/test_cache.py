@@ -410,3 +410,21 @@ def test_write_killed_mid_way_leaves_an_orphan_the_next_run_removes(tmp_path, _o
     left = sorted(f.name for f in tmp_path.iterdir())
     assert left == sorted([live.name, next(f.name for f in tmp_path.iterdir()
                                            if f.suffix == ".lmjop")])
+
+
+def test_a_format_5_file_from_before_the_keyed_tag_is_rebuilt_silently(tmp_path):
+    """An upgrade: the old container (unkeyed SHA-256, format 5) is another format, not an
+    attack: rebuilt without a warning."""
+    p = _patches()
+    _get(tmp_path, p)
+    (path,) = tmp_path.iterdir()
+    head, payload = _split(path.read_bytes())
+    head["format"] = "lumijax.transport/5"
+    path.write_bytes(_pack(head, payload, secret=None))
+    with pytest.raises(OperatorFileError) as exc:
+        load_operator(path)
+    assert exc.value.reason == "format"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not _get(tmp_path, p)[1]
+        assert _get(tmp_path, p)[1]
