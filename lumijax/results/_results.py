@@ -183,8 +183,11 @@ class Results:
                             networks=tuple(self.networks), luminaires=())
             object.__setattr__(self, "design", design)
         if tuple(self.networks) != design.networks:
-            raise ValueError(f"the design's networks {design.networks} are not the results' "
-                             f"{tuple(self.networks)}")
+            from ..errors import LumijaxError
+
+            raise LumijaxError(f"expected a design of the results' networks "
+                               f"{list(self.networks)}, got one of {list(design.networks)}",
+                               key="design.networks")
         dimmers = np.asarray(design.dimmers)
         object.__setattr__(self, "grids", {
             n: g if g.dimmers is dimmers else dataclasses.replace(g, dimmers=dimmers)

@@ -149,10 +149,12 @@ def build_viewer(study, results, *, off_screen: bool = False, window_size=(1280,
     cam = camera or cameras_of(study)[0]
     cam = cam.replace(size=tuple(window_size))
     surface = surface_light(results)
-    dimmers = results.design.dimmers  # the one record of the design the results are lit at
+    design = results.design  # the one record of the design the results are lit at
+    if design.same_study(study.design):  # the fittings drawn where the design aims them
+        study = study.with_design(design)
     pl = pv.Plotter(off_screen=off_screen, window_size=list(window_size),
                     title=f"lumijax — {results.study}")
-    viewer = DimmerViewer(study, surface, pl, cam, dimmers, tone=cam.tone,
+    viewer = DimmerViewer(study, surface, pl, cam, design.dimmers, tone=cam.tone,
                           ev=cam.exposure_ev)
     if widgets:
         viewer.add_widgets()
