@@ -300,20 +300,35 @@ def _bad_header(case, head, payload, n):
     return head, payload
 
 
+FIXED_SECRET = b"a test secret of 32 bytes, fixed"
+
+
+@pytest.fixture(scope="module")
+def pristine(tmp_path_factory):
+    """One operator file under FIXED_SECRET, built once for the validation cases."""
+    d = tmp_path_factory.mktemp("pristine")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("LUMIJAX_CACHE_SECRET", FIXED_SECRET.decode())
+        p = _patches()
+        op, _ = _get(d, p)
+    (path,) = d.iterdir()
+    return p, op, path.name, path.read_bytes()
+
+
 @pytest.mark.parametrize("case", [
     "json", "n_patches_str", "chunk_bool", "object_dtype", "big_endian", "past_end", "overlap",
     "shape", "extra_key", "missing_array", "recv_out_of_range", "src_negative", "block_of",
     "nan", "area",
 ])
-def test_invalid_but_signed_file_is_rebuilt_never_read(tmp_path, _own_secret, case):
+def test_invalid_but_signed_file_is_rebuilt_never_read(tmp_path, monkeypatch, pristine, case):
     """Even a correctly tagged file (a writer's bug, a leaked secret) is validated field by
     field: an OperatorFileError and a rebuild, never a traceback or a clamped index."""
-    p = _patches()
-    op, _ = _get(tmp_path, p)
-    (path,) = tmp_path.iterdir()
-    head, payload = _split(path.read_bytes())
+    monkeypatch.setenv("LUMIJAX_CACHE_SECRET", FIXED_SECRET.decode())
+    p, op, name, data = pristine
+    path = tmp_path / name
+    head, payload = _split(data)
     head, payload = _bad_header(case, head, payload, p.n)
-    secret = _own_secret.read_bytes()
+    secret = FIXED_SECRET
     if head is None:
         data = bytearray(_pack({"format": "x"}, payload, secret))
         data[56:70] = b'{"format": [1,'
