@@ -434,6 +434,8 @@ Grid = Annotated[PlaneGrid | PointsGrid, Field(discriminator="kind")]
 ToneCurveName = Literal["filmic", "reinhard", "clip"]
 OptimiserName = Literal["auto", "lbfgsb", "jaxopt_lbfgsb", "projected_gradient",
                         "levenberg_marquardt", "gauss_newton", "dogleg", "bfgs"]
+#: Names of ``radiosity._solvers.RADIOSITY_SOLVERS``, the ``[solver] method`` choices.
+RadiosityMethodName = Literal["refined", "bicgstab", "gmres", "southwell", "jacobi"]
 
 
 class CameraConfig(_Model):
@@ -474,7 +476,7 @@ class SolverConfig(_Model):
     patch_size: Positive | None = Field(None, description="m; default: automatic")
     target_patches: Annotated[int, Field(ge=10, le=10_000_000)] = 4_000
     max_block: Annotated[int, Field(ge=16, le=8192)] = 1024
-    method: Literal["bicgstab", "gmres", "southwell", "jacobi"] = "bicgstab"
+    method: RadiosityMethodName = "refined"
     tolerance: Annotated[float, Field(gt=0, lt=1)] | None = None
     max_iterations: Annotated[int, Field(ge=1)] = 1000
     gather_rays: Annotated[int, Field(ge=16, le=65536)] = 512

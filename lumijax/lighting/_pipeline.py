@@ -18,6 +18,10 @@ from ._spectral import SpectralSetup
 
 __all__ = ["SolverSettings", "solve_lighting", "auto_patch_size"]
 
+CREATED_WARN = 0.01
+"""Fraction of the reflected flux that rows summing above 1 would create, beyond which a
+study is warned (the solve corrects it either way)."""
+
 
 @dataclass(frozen=True)
 class SolverSettings:
@@ -30,7 +34,7 @@ class SolverSettings:
     patch_size: float | None = None
     target_patches: int = 4_000
     max_block: int = 1024
-    method: str = "bicgstab"
+    method: str = "refined"  # a name in lumijax.radiosity.RADIOSITY_SOLVERS
     tolerance: float | None = None
     max_iterations: int = 1000
     gather_rays: int = 512
@@ -221,6 +225,18 @@ def solve_lighting(
     escaped = np.asarray(res.escaped).ravel()
     stats.update(iterations=int(res.iterations), residual=float(res.residual),
                  escaped_fraction=float(np.max(escaped)) if escaped.size else 0.0)
+    created = np.asarray(res.stats["created"]).ravel()
+    stats["created_fraction"] = float(np.max(created)) if created.size else 0.0
+    if stats["created_fraction"] > CREATED_WARN:
+        warnings.warn(
+            f"form-factor rows sum to up to {float(res.stats['row_max']):.3f} (above 1: "
+            f"{100 * stats['created_fraction']:.1f} % of the reflected flux would be created, "
+            "not reflected); corrected by rescaling those patches' outgoing light "
+            "(docs/radiosity.md, \"Row sums\"). Usually coincident surfaces (see any warning "
+            "naming them) or patches too coarse where surfaces meet: lower [solver] "
+            "patch_size or raise [solver] target_patches",
+            LumijaxWarning, stacklevel=2,
+        )
     if len(points) and float(np.min(gather.coverage)) < 0.999 and stats["escaped_fraction"] > 0.01:
         warnings.warn(
             f"the scene is open: up to {100 * stats['escaped_fraction']:.0f} % of the reflected "

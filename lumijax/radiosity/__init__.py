@@ -38,10 +38,24 @@ from ._refine import (
     refine_patches as refine_patches,
 )
 from ._solve import (
+    CLOSED_TOL as CLOSED_TOL,
     RadiositySolution as RadiositySolution,
     check_reflectance as check_reflectance,
     escaped_fraction as escaped_fraction,
+    row_correction as row_correction,
     solve_radiosity as solve_radiosity,
+)
+from ._solvers import (
+    DEFAULT_RADIOSITY_SOLVER as DEFAULT_RADIOSITY_SOLVER,
+    GMRES as GMRES,
+    RADIOSITY_SOLVERS as RADIOSITY_SOLVERS,
+    AbstractKrylovSolver as AbstractKrylovSolver,
+    AbstractRadiositySolver as AbstractRadiositySolver,
+    BiCGStab as BiCGStab,
+    Jacobi as Jacobi,
+    Refined as Refined,
+    Southwell as Southwell,
+    radiosity_solver as radiosity_solver,
 )
 from ._store import (
     FORMAT as FORMAT,

@@ -2,20 +2,25 @@
 
 Columns of ``B₀`` are independent problems (networks × wavelength samples); the operator acts on
 the whole ``(P, ...)`` array, so every product is one batched dense matmul over all columns.
+The method is a solver object (``_solvers.py``, registry :data:`RADIOSITY_SOLVERS`); the
+default, :class:`Refined`, judges success on the true residual and recovers from Krylov
+breakdown by itself (measured in ``docs/radiosity.md``, "Solver reliability").
 
-Methods (iteration counts measured in ``docs/radiosity.md``):
+Two things happen around every solve:
 
-* ``"bicgstab"`` (default) and ``"gmres"``: Krylov solvers from lineax. ρF is similar to a
-  symmetric matrix (``diag(ρ/A)^{1/2} G diag(ρ/A)^{1/2}``, G = AF symmetric), so its eigenvalues
-  are real in (−ρ_max, ρ_max): Krylov iterations grow like √(1/(1−ρ)), not 1/(1−ρ) as Jacobi.
-  Differentiable by implicit differentiation (lineax solves the adjoint with ``Kᵀ``).
-* ``"southwell"``: the paper's progressive shooting (Southwell relaxation), block by block: the
-  block with the most unshot flux shoots it to every block it sees. Forward only.
-* ``"jacobi"``: ``B ← B₀ + ρFB``, for comparison. Forward only.
-
-Columns are scaled to unit maximum before the solve (the scale is a constant for autodiff, and
-the system is linear, so the answer and its derivatives are unchanged) so that one tolerance
-means the same thing for a bright and a dim network.
+* **Row sums.** A discretised form-factor row may sum above 1 (patches meeting at close range,
+  coincident surfaces): such a patch would pass on more light than it receives, and in a
+  bright closed room that is amplified by 1/(1 − ρ). Each patch's outgoing light is rescaled
+  to land in full and no more: ``F_ij → F_ij c_j`` with ``c_j = 1/s_j`` (``s_j = Σ_k F_jk``)
+  when ``s_j > 1``, and for every patch in a *closed enclosure* (all rows of the patches that
+  see anything within ``CLOSED_TOL`` of 1). By reciprocity ``Σ_i A_i F_ij = A_j s_j``, so the
+  flux patch j sends out is then exactly ``A_j B_j min(s_j, 1)`` (``A_j B_j`` when closed):
+  energy is conserved exactly, reciprocity only approximately (to the rows' deviation from 1).
+  It is applied as a change of variables — ρ' = ρc, B₀' = cB₀, B = B'/c — so the operator is
+  untouched and gradients flow through ρ as before.
+* **Scaling.** Columns are scaled to unit maximum before the solve (the scale is a constant for
+  autodiff, and the system is linear, so the answer and its derivatives are unchanged) so that
+  one tolerance means the same thing for a bright and a dim network.
 """
 
 from __future__ import annotations
@@ -28,11 +33,31 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ..errors import SolveError
+from ._krylov import column_max
 from ._operator import ReflectionOperator, TransportOperator
+from ._solvers import (
+    DEFAULT_RADIOSITY_SOLVER,
+    RADIOSITY_SOLVERS,
+    AbstractRadiositySolver,
+    radiosity_solver,
+)
 
-__all__ = ["RadiositySolution", "solve_radiosity", "check_reflectance", "escaped_fraction"]
+__all__ = [
+    "RadiositySolution",
+    "solve_radiosity",
+    "check_reflectance",
+    "escaped_fraction",
+    "row_correction",
+    "CLOSED_TOL",
+]
 
-METHODS = ("gmres", "bicgstab", "southwell", "jacobi")
+CLOSED_TOL = 0.02
+"""A scene is a closed enclosure when the row sum of every patch that sees anything (row sum
+> ``BLIND_ROW``) is within this of 1; its rows are then normalised to exactly 1."""
+
+BLIND_ROW = 0.01
+"""Row sums at or below this belong to patches that see (almost) nothing — a face pressed
+against another surface — and take no part in the closed test or the correction."""
 
 
 class RadiositySolution(eqx.Module):
@@ -43,17 +68,20 @@ class RadiositySolution(eqx.Module):
     value
         Radiosity (exitance) B, same shape and unit as B₀ (lm/m² for lumens).
     iterations
-        Operator products used (Krylov: matvec count, an upper bound for GMRES restarts;
-        Southwell: block shots expressed in full-matvec equivalents is in ``stats``).
+        Operator products used (Southwell: block shots).
     residual
-        Achieved ``max_col ‖B₀ − (I − ρF)B‖_∞ / ‖B₀‖_∞`` (relative, per column, worst column).
+        Achieved ``max_col ‖B₀ − (I − ρF')B‖_∞ / ‖B₀‖_∞`` (relative, per column, worst column)
+        for the row-corrected F' the solve used.
     result
         A ``lineax.RESULTS`` code; ``RESULTS.successful`` when the tolerance was met.
     escaped
         Per column, the fraction of the flux leaving the surfaces that leaves the scene
-        (``Σ A B (1 − Σ_j F_ij) / Σ A B``): 0 in a closed room, information for open scenes.
+        (``Σ A B (1 − min(s, 1)) / Σ A B``, s the row sums after correction): 0 in a closed
+        room, never negative; information for open scenes.
     stats
-        Method-specific counts (lineax steps, shots, ...).
+        Method-specific counts, plus ``created``: per column, the fraction of the flux that
+        rows summing above 1 would have created without the correction
+        (``Σ A B max(s − 1, 0) / Σ A B``), ``row_max`` (largest row sum) and ``closed``.
     """
 
     value: Float[Array, "patches ..."]
@@ -93,21 +121,39 @@ def check_reflectance(transport: TransportOperator, rho) -> None:
         )
 
 
+def row_correction(rows: Float[Array, " patches"]) -> tuple[Array, Array]:
+    """``(c, closed)``: the per-patch factor ``c`` that rescales each patch's outgoing light
+    (``F_ij → F_ij c_j``, module docstring) and whether the scene is a closed enclosure.
+
+    ``rows`` are the form-factor row sums ``Σ_j F_ij`` (dimensionless).
+    """
+    rows = jax.lax.stop_gradient(rows)
+    seeing = rows > BLIND_ROW
+    closed = jnp.all(jnp.where(seeing, jnp.abs(rows - 1.0) <= CLOSED_TOL, True)) & jnp.any(seeing)
+    target = jnp.where(closed, 1.0, jnp.minimum(rows, 1.0))
+    c = jnp.where(seeing, target / jnp.where(seeing, rows, 1.0), 1.0)
+    return c, closed
+
+
 def escaped_fraction(transport: TransportOperator, b: Float[Array, "patches ..."]) -> Array:
-    """Fraction of the exitance flux Σ A B that leaves the scene, per column (dimensionless)."""
+    """Fraction of the exitance flux Σ A B that leaves the scene, per column (dimensionless),
+    after the row correction of :func:`row_correction` (so never negative)."""
+    rows = transport.row_sums()
+    c, _ = row_correction(rows)
+    return _flux_fractions(transport, b, rows * c)[0]
+
+
+def _flux_fractions(transport, b, rows_used):
+    """``(escaped, created)`` per column for the row sums the solve used."""
     b = jax.lax.stop_gradient(b)
-    area = transport.area.astype(b.dtype).reshape((-1,) + (1,) * (b.ndim - 1))
-    escape = 1.0 - transport.row_sums().astype(b.dtype).reshape(area.shape)
-    total = jnp.sum(area * b, axis=0)
-    return jnp.sum(area * b * escape, axis=0) / jnp.where(total != 0, total, 1.0)
-
-
-def _residual(op: ReflectionOperator, b0, b):
-    r = b0 - (b - op.mv(b))
-    axes = (0,)
-    num = jnp.max(jnp.abs(r), axis=axes)
-    den = jnp.max(jnp.abs(b0), axis=axes)
-    return jnp.max(jnp.where(den > 0, num / jnp.where(den > 0, den, 1.0), num))
+    shape = (-1,) + (1,) * (b.ndim - 1)
+    area = transport.area.astype(b.dtype).reshape(shape)
+    rows_used = rows_used.astype(b.dtype).reshape(shape)
+    flux = area * jnp.abs(b)
+    total = jnp.sum(flux, axis=0)
+    total = jnp.where(total != 0, total, 1.0)
+    escaped = jnp.sum(flux * jnp.clip(1.0 - rows_used, 0.0, None), axis=0) / total
+    return escaped, flux, total
 
 
 def solve_radiosity(
@@ -115,10 +161,11 @@ def solve_radiosity(
     rho: Float[Array, "patches ..."],
     b0: Float[Array, "patches ..."],
     *,
-    method: str = "bicgstab",
+    solver: AbstractRadiositySolver | str = DEFAULT_RADIOSITY_SOLVER,
+    method: str | None = None,
     rtol: float | None = None,
     max_steps: int = 1000,
-    restart: int = 10,
+    correct_rows: bool = True,
     throw: bool = True,
 ) -> RadiositySolution:
     """Solve ``(I − ρF) B = B₀`` for all columns of ``B₀`` at once.
@@ -133,18 +180,24 @@ def solve_radiosity(
         ``B₀`` of shape ``(P, networks, W)``).
     b0
         Initial (reflected direct) exitance ``ρ E_direct`` (+ self-emission), lm/m², ``(P, ...)``.
+    solver
+        An :class:`AbstractRadiositySolver` or a name in :data:`RADIOSITY_SOLVERS` (the
+        config's ``[solver] method``); default ``"refined"``.
     method
-        ``"bicgstab"`` (default: fewest operator products, see ``docs/radiosity.md``),
-        ``"gmres"`` (restarted every ``restart`` products), ``"southwell"``, ``"jacobi"``.
+        The same as ``solver`` by name (kept for callers that pass the config's word).
     rtol
-        Relative residual to reach, per column in the max norm; default 1e-4 in float32 and
-        1e-9 in float64.
+        Relative residual to reach, per column in the max norm (``[solver] tolerance``);
+        default 1e-4 in float32 and 1e-9 in float64.
+    max_steps
+        Most operator products (``[solver] max_iterations``).
+    correct_rows
+        Rescale form-factor rows that sum above 1, and every row of a closed enclosure
+        (module docstring). ``False`` solves with F as stored.
     throw
         Raise :class:`SolveError` if the tolerance is not met; otherwise report it in
         ``result``.
     """
-    if method not in METHODS:
-        raise SolveError(f"unknown solve method {method!r}; expected one of {METHODS}")
+    solver = radiosity_solver(method if method is not None else solver)
     check_reflectance(transport, rho)
     b0 = jnp.asarray(b0)
     if not jnp.issubdtype(b0.dtype, jnp.floating):
@@ -156,125 +209,90 @@ def solve_radiosity(
     if rtol is None:
         rtol = 1e-9 if b0.dtype == jnp.float64 else 1e-4
     b, iterations, residual, result, escaped, stats = _solve(
-        transport, jnp.asarray(rho), b0, method, float(rtol), int(max_steps), int(restart)
+        transport, jnp.asarray(rho), b0, solver, float(rtol), int(max_steps), bool(correct_rows)
     )
     sol = RadiositySolution(b, iterations, residual, result, escaped, stats)
     if throw:
-        sol = _raise_if_failed(sol, method, rtol)
+        sol = _raise_if_failed(sol, solver, rtol, max_steps)
     return sol
 
 
 @eqx.filter_jit
-def _solve(transport, rho, b0, method, rtol, max_steps, restart):
-    """The traced part of :func:`solve_radiosity` (compiled once per shape and method)."""
+def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows):
+    """The traced part of :func:`solve_radiosity` (compiled once per shape and solver)."""
+    rows = transport.row_sums()
+    shape = (-1,) + (1,) * (b0.ndim - 1)
+    if correct_rows:
+        c, closed = row_correction(rows)
+    else:
+        c, closed = jnp.ones_like(rows), jnp.asarray(False)
+    c = c.astype(b0.dtype).reshape(shape)
+    rho_c = jnp.asarray(rho, b0.dtype)
+    rho_c = (rho_c.reshape(shape) if rho_c.ndim == 1 else rho_c) * c
+    b0c = b0 * c
     # Per-column scale, constant for autodiff: B = s · solve(B₀ / s) for any s.
-    scale = jax.lax.stop_gradient(jnp.max(jnp.abs(b0), axis=0, keepdims=True))
+    scale = jax.lax.stop_gradient(column_max(b0c))
     scale = jnp.where(scale > 0, scale, 1.0)
     struct = jax.ShapeDtypeStruct(b0.shape, b0.dtype)
-    op = ReflectionOperator(transport, rho, struct)
-    vec = b0 / scale
-    if method in ("gmres", "bicgstab"):
-        if method == "gmres":
-            solver = lx.GMRES(rtol=0.0, atol=rtol, max_steps=max_steps, restart=restart)
-        else:
-            solver = lx.BiCGStab(rtol=0.0, atol=rtol, max_steps=max_steps)
-        system = lx.IdentityLinearOperator(struct) - op
-        # Start from two Neumann terms, y0 = B₀ + ρF·B₀ (exact where F = 0), and solve for the
-        # correction. lineax does not test a starting residual, so an exact start would break
-        # the Krylov recurrence (0/0): such columns keep a zero correction, and the residual
-        # check below judges the result. (Passing y0 as a lineax option would not
-        # differentiate.)
-        y0 = vec + op.mv(vec)
-        rhs = vec - (y0 - op.mv(y0))
-        sol = lx.linear_solve(system, rhs, solver, throw=False)
-        corr, result, steps = sol.value, sol.result, sol.stats["num_steps"]
-        finite = jnp.all(jnp.isfinite(corr), axis=0, keepdims=True)
-        x = y0 + jnp.where(finite, corr, 0.0)
-        if method == "gmres":
-            # the first lineax step only forms the residual; each later one is a restart cycle
-            iterations = 1 + (steps - 1) * (restart + 1)
-        else:
-            iterations = 2 * steps
-        stats = {"num_steps": steps}
-    elif method == "jacobi":
-        x, iterations, result = _jacobi(op, vec, rtol, max_steps)
-        stats = {}
-    else:
-        x, iterations, shots, result = _southwell(op, vec, rtol, max_steps)
-        stats = {"shots": shots}
-    b = x * scale
-    residual = _residual(op, b0, b)
-    # lineax flags "breakdown" or "non-finite" when a Krylov recurrence meets an exactly
-    # converged residual (a sphere's few distinct eigenvalues; F = 0); the true residual of
-    # the returned B decides.
+    op = ReflectionOperator(transport, rho_c, struct)
+    x, iterations, result, stats = solver.run(op, b0c / scale, rtol, max_steps)
+    y = x * scale
+    residual = _residual(op, b0c, y) if correct_rows else _residual(op, b0, y)
+    # A Krylov recurrence may flag breakdown on an exactly converged residual (a sphere's few
+    # distinct eigenvalues; F = 0): the true residual of the returned B decides.
     result = lx.RESULTS.where(residual <= rtol, lx.RESULTS.successful, result)
-    return b, jnp.asarray(iterations), residual, result, escaped_fraction(transport, b), stats
-def _raise_if_failed(sol: RadiositySolution, method: str, rtol: float) -> RadiositySolution:
+    b = y / c
+    used = rows.astype(b0.dtype).reshape(shape) * c
+    escaped, flux, total = _flux_fractions(transport, b, used)
+    excess = jnp.clip(rows.astype(b0.dtype).reshape(shape) - 1.0, 0.0, None)
+    stats = dict(stats, created=jnp.sum(flux * excess, axis=0) / total,
+                 row_max=jnp.max(rows), closed=closed)
+    return b, jnp.asarray(iterations), residual, result, escaped, stats
+
+
+def _residual(op: ReflectionOperator, b0, b):
+    """Worst column's ``‖b0 − (I − K) b‖_∞ / ‖b0‖_∞``, in float64 when JAX has it."""
+    wide = jnp.float64 if jax.config.read("jax_enable_x64") else b.dtype
+    b0w, bw = b0.astype(wide), b.astype(wide)
+    r = b0w - (bw - op.mv(bw))
+    num, den = column_max(r), column_max(b0w)
+    return jnp.max(jnp.where(den > 0, num / jnp.where(den > 0, den, 1.0), num)).astype(b.dtype)
+
+
+_WHY = (
+    (lx.RESULTS.breakdown, "the Krylov recurrence broke down"),
+    (lx.RESULTS.max_steps_reached, "the budget of operator products ran out"),
+    (lx.RESULTS.stagnation, "the residual stopped decreasing"),
+)
+
+
+def _name(solver: AbstractRadiositySolver) -> str:
+    names = [k for k, v in RADIOSITY_SOLVERS.items() if type(solver) is v]
+    return f'method = "{names[0]}"' if names else type(solver).__name__
+
+
+def _raise_if_failed(sol: RadiositySolution, solver, rtol: float, max_steps: int):
     failed = (sol.result != lx.RESULTS.successful) | (sol.residual > 10 * rtol)
     ok, res = _concrete(~failed), _concrete(sol.residual)
+    hint = (f"raise [solver] max_iterations (now {max_steps}), loosen [solver] tolerance "
+            f"(now {rtol:g}), or choose another [solver] method ({', '.join(RADIOSITY_SOLVERS)})")
     if ok is None or res is None:
         # Traced (jit/grad): a runtime check carried by the value, as lineax does.
         value = eqx.error_if(
-            sol.value, failed, f"the {method} radiosity solve did not reach rtol={rtol:g}"
-        )
+            sol.value, failed,
+            f"the radiosity solve ({_name(solver)}) did not reach [solver] tolerance = "
+            f"{rtol:g}: {hint}")
         return eqx.tree_at(lambda s: s.value, sol, value)
     if not bool(ok):
+        why = next((w for code, w in _WHY if bool(sol.result == code)),
+                   "the residual is above tolerance")
+        precision = ("; in float32 the attainable residual grows like 1/(1 − ρ): "
+                     '[solver] precision = "float64" reaches further')
         raise SolveError(
-            f"the {method} radiosity solve did not converge: relative residual {float(res):.3g} "
-            f"did not reach rtol={rtol:g} after {int(_concrete(sol.iterations))} operator "
-            f"products ({lx.RESULTS[sol.result] or 'residual above tolerance'}). Check that "
-            "0 ≤ ρ < 1, or raise max_steps / loosen rtol"
+            f"the radiosity solve ({_name(solver)}) did not converge: relative residual "
+            f"{float(res):.3g} did not reach [solver] tolerance = {rtol:g} after "
+            f"{int(_concrete(sol.iterations))} operator products ({why}). Check that "
+            f"0 ≤ ρ < 1, or {hint}{precision if sol.value.dtype == jnp.float32 else ''}",
+            key="solver",
         )
     return sol
-
-
-def _jacobi(op, b0, rtol, max_steps):
-    def cond(c):
-        _, r, k = c
-        return (r > rtol) & (k < max_steps)
-
-    def body(c):
-        b, _, k = c
-        new = b0 + op.mv(b)
-        return new, jnp.max(jnp.abs(new - b)), k + 1
-
-    b, r, k = jax.lax.while_loop(cond, body, (b0, jnp.asarray(jnp.inf, b0.dtype), 0))
-    result = lx.RESULTS.where(r > rtol, lx.RESULTS.max_steps_reached, lx.RESULTS.successful)
-    return b, k, result
-
-
-def _southwell(op: ReflectionOperator, b0, rtol, max_steps):
-    """Progressive shooting by blocks (Southwell relaxation on the block system).
-
-    The unshot exitance U starts at B₀; each shot takes the block with the largest unshot flux
-    Σ A|U|, sends it through F (only pairs touching that block are computed), adds the
-    reflected part to B and to U, and clears the block's U. Stops when the unshot flux is below
-    ``rtol`` of the initial flux. ``max_steps`` counts full sweeps (one shot per block).
-    """
-    tr = op.transport
-    block_of = tr.block_of
-    nb = tr.n_blocks
-    area = tr.area.astype(b0.dtype).reshape((-1,) + (1,) * (b0.ndim - 1))
-    total0 = jnp.sum(area * jnp.abs(b0))
-
-    def flux(u):
-        per_patch = jnp.sum(jnp.abs(u * area).reshape(u.shape[0], -1), axis=1)
-        return jax.ops.segment_sum(per_patch, block_of, nb)
-
-    mask_shape = (-1,) + (1,) * (b0.ndim - 1)
-
-    def cond(c):
-        _, u, k = c
-        return (jnp.sum(flux(u)) > rtol * total0) & (k < max_steps * nb)
-
-    def body(c):
-        b, u, k = c
-        blk = jnp.argmax(flux(u))
-        shoot = jnp.where((block_of == blk).reshape(mask_shape), u, 0.0)
-        db = op.rho * tr.matmul_from_block(shoot, blk)
-        return b + db, u - shoot + db, k + 1
-
-    b, u, k = jax.lax.while_loop(cond, body, (b0, b0, 0))
-    left = jnp.sum(flux(u)) > rtol * total0
-    result = lx.RESULTS.where(left, lx.RESULTS.max_steps_reached, lx.RESULTS.successful)
-    return b, k, k, result
