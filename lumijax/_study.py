@@ -96,7 +96,12 @@ def check_memory(study: Study):
     the ``[solver]`` settings that would fit when it exceeds the available memory. Adaptive
     refinement (``refine``) adds patches after direct light, so it is bounded here unrefined.
     """
-    from .lighting._pipeline import _group_counts, _two_levels, auto_patch_size
+    from .lighting._pipeline import (
+        _check_before_meshing,
+        _group_counts,
+        _two_levels,
+        auto_patch_size,
+    )
     from .radiosity import mesh_patches
     from .radiosity._estimate import bound_operator_memory
 
@@ -105,6 +110,7 @@ def check_memory(study: Study):
     if not settings.indirect or len(tri) == 0 or not study.scene.networks:
         return None
     size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
+    _check_before_meshing(study.scene, tri, size, settings)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     patches, fine = _two_levels(patches, tri, size, settings.operator_patches)
     itemsize = 8 if settings.precision == "float64" else 4

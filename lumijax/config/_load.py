@@ -89,6 +89,8 @@ def _key_path(loc: tuple) -> str:
             continue
         if i >= 2 and loc[i - 2] == "photometry" and part in _UNION_TAGS:
             continue
+        if isinstance(part, str) and ("[" in part or "(" in part):
+            continue  # a union member pydantic tried ('function-after[_finite(), float]')
         if isinstance(part, int):
             out += f"[{part}]"
         else:

@@ -48,9 +48,18 @@ __all__ = [
 ]
 
 
+#: Largest magnitude of a coordinate, vector component or angle (m, or degrees): 10⁹ m is
+#: beyond any site (geodetic coordinates are ~10⁷ m) and keeps areas (m²) and squared
+#: distances far from float64 overflow; a larger number is a typo, not a model.
+MAX_MAGNITUDE = 1e9
+
+
 def _finite(v: float) -> float:
     if not math.isfinite(v):
         raise ValueError("must be a finite number")
+    if abs(v) > MAX_MAGNITUDE:
+        raise ValueError(f"{v:g} is beyond ±{MAX_MAGNITUDE:g} (m for coordinates, degrees for "
+                         "angles): a typo, not a model")
     return v
 
 

@@ -128,6 +128,7 @@ def solve_lighting(
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     if settings.refine:
         from ..radiosity import refine_patches
+    _check_before_meshing(scene, tri, size, settings)
 
         patches = refine_patches(
             patches, lambda p: direct_illuminance(gscene, p.centroid, p.normal).by_network,
@@ -300,6 +301,19 @@ def _gather_in_chunks(points, normals, patches, caster, rays, report):
 def _group_counts(tri, target_patches: int) -> np.ndarray:
     """Patches per group of the mesh made for ``target_patches`` (the memory check's way to
     try a setting without building anything on it)."""
+def _check_before_meshing(scene, tri, size: float, settings) -> None:
+    """The mesh and a hopeless operator refused before meshing (``_estimate``)."""
+    from ..radiosity._estimate import check_before_meshing
+
+    esize = None
+    if settings.operator_patches is not None:
+        esize = auto_patch_size(float(tri.areas.sum()), settings.operator_patches)
+        esize = esize if esize > size else None
+    check_before_meshing(tri.vertices, tri.group, size, element_size=esize,
+                         itemsize=8 if settings.precision == "float64" else 4,
+                         max_block=settings.max_block, file=getattr(scene, "source", None))
+
+
     from ..radiosity import mesh_patches
 
     size = auto_patch_size(float(tri.areas.sum()), target_patches)

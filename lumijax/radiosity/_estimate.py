@@ -164,6 +164,8 @@ def available_memory_bytes() -> int:
 
 
 def _gib(n: float) -> str:
+    if n >= 2**40:
+        return f"{n / 2**40:.3g} TiB"
     for unit, scale in (("GiB", 2**30), ("MiB", 2**20)):
         if n >= scale:
             return f"{n / scale:.1f} {unit}"
@@ -275,3 +277,55 @@ def bound_operator_memory(patches, *, max_block: int = 1024, itemsize: int = 4, 
                           file=file, group_counts=counts, max_block=max_block, itemsize=itemsize,
                           requested=requested, patch_size=patch_size, remesh=remesh)
     return est, part
+
+
+#: Host bytes per patch of a mesh (vertices, centroid, normal, area, material, group, source).
+PATCH_BYTES = 152
+
+
+def patch_count(vertices, size: float, group=None):
+    """Patches :func:`~lumijax.radiosity.mesh_patches` makes at edge ``size`` (m), counted in
+    floats without meshing: ⌈longest edge / size⌉² per triangle (slivers, bisected instead,
+    come within ⅓ of it). Per group (``np.unique`` order) when ``group`` is given."""
+    v = np.asarray(vertices, np.float64)
+    e = np.linalg.norm(np.roll(v, -1, axis=1) - v, axis=-1).max(axis=1)
+    with np.errstate(over="ignore"):
+        n = np.ceil(np.maximum(e / size, 1.0)) ** 2
+    if group is None:
+        return float(n.sum())
+    _, inv = np.unique(group, return_inverse=True)
+    return np.bincount(inv, weights=n)
+
+
+def check_before_meshing(vertices, group, size: float, *, element_size: float | None = None,
+                         itemsize: int = 4, max_block: int = 1024, file=None,
+                         available: int | None = None) -> None:
+    """Refuse, before any patch exists, a mesh whose patches alone would not fit, or whose
+    operator is hopeless (:data:`HOPELESS_RATIO`) even before its blocks are counted: a
+    ``patch_size`` of 1 nm on a room would otherwise be meshed until memory runs out.
+
+    ``element_size``: the two-level element edge (m) when the operator is on elements."""
+    available = available_memory_bytes() if available is None else int(available)
+    n_tri = len(vertices)
+    fine = patch_count(vertices, size)
+    if not PATCH_BYTES * fine <= available:
+        n_fit = 0.5 * available / PATCH_BYTES
+        if element_size is None:  # one level: the operator, ~itemsize × P² (peak ≈ 2×), too
+            n_fit = min(n_fit, 0.5 * math.sqrt(available / itemsize))
+        fit = math.sqrt(fine / n_fit) * size
+        raise SolveError(
+            f"patches of {size:.3g} m make about {fine:.3g} patches, {_gib(PATCH_BYTES * fine)} "
+            f"for the mesh alone, and {_gib(available)} of memory is available: set [solver] "
+            f"patch_size ≥ {fit:.3g} m (or a smaller target_patches)", file=file, key="solver")
+    coarse = fine if element_size is None else patch_count(vertices, element_size)
+    quick = itemsize * coarse * coarse / 2  # every pair, no padding: below the real bound
+    if quick > HOPELESS_RATIO * available:
+        counts = patch_count(vertices, size if element_size is None else element_size, group)
+        est = OperatorEstimate(int(coarse), int(-(-coarse // max_block)),
+                               int((coarse / max_block) ** 2 / 2), int(quick), int(quick),
+                               visible_only=False)
+        check_operator_memory(est, available=available, triangles=n_tri,
+                              two_levels=element_size is not None, file=file,
+                              group_counts=None if counts.sum() > 1e7 else counts.astype(np.int64),
+                              max_block=max_block, itemsize=itemsize,
+                              patch_size=None if element_size is not None else size)

@@ -117,6 +117,7 @@ def build_scene(cfg: StudyConfig) -> Scene:
     naming the config file and key.
     """
     from .. import photometry as _phot
+    from ..config._schema import MAX_MAGNITUDE
     read_photometry = _phot.read_photometry
     isotropic = getattr(_phot, "isotropic", None)
     lambertian = getattr(_phot, "lambertian", None)
@@ -160,6 +161,11 @@ def build_scene(cfg: StudyConfig) -> Scene:
                 tri = tri[:, ::-1]
                 is_closed = False
         tri = place(tri, frame)
+        if not np.abs(tri).max(initial=0.0) <= MAX_MAGNITUDE:  # a mesh file's or a group's scale
+            what = f"{g.file.name}: a vertex" if g.kind == "mesh" else "a vertex"
+            raise GeometryError(f"{what} lies {np.abs(tri).max():.3g} m from the origin, beyond "
+                                f"±{MAX_MAGNITUDE:g} m (check the mesh's units and the group's "
+                                "scale)", file=src, key=f"{key}.file" if g.kind == "mesh" else key)
         verts.append(tri)
         n = len(tri)
         item.append(np.full(n, i))
