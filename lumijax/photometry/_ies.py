@@ -273,6 +273,8 @@ def _tilt_file(path: Path, value: str, line: int, allow_outside: bool) -> Path:
     def refuse(why: str) -> PhotometryError:
         return PhotometryError(f"TILT={shown}: {why}", file=path, line=line)
 
+    if not value:
+        raise refuse("names no file (expected TILT=NONE, TILT=INCLUDE or TILT=<file name>)")
     if "\x00" in value:
         raise refuse("the tilt file name holds a NUL character")
     if len(value) > 1024 or any(len(part) > 255 for part in re.split(r"[\\/]", value)):

@@ -200,6 +200,7 @@ def test_counts_that_do_not_explain_the_data_keep_the_precise_error(tmp_path):
 
 def test_tilt_file_name_with_nul_or_too_long(tmp_path):
     _refused(_write(tmp_path, _edit(IES, 3, "TILT=a\x00b")), 3, "NUL")
+    _refused(_write(tmp_path, _edit(IES, 3, "TILT=")), 3, "names no file")
     _refused(_write(tmp_path, _edit(IES, 3, "TILT=" + "a" * 300)), 3, "too long")
     _refused(_write(tmp_path, _edit(IES, 3, "TILT=" + "a/" * 3000)), 3, "too long")
 
