@@ -114,9 +114,10 @@ def _optimisation_section(opt: dict, study, results) -> dict[str, Any]:
             for label, k, unit in (("Eavg", "avg", "lx"), ("Emin", "min", "lx"),
                                    ("Emax", "max", "lx"), ("U0", "u0", ""), ("Ud", "ud", ""))
             if k in b or k in a]})
-    start = study.design.dimmer_of()  # the config's: where the fit started
-    after_dimmers = results.design.dimmer_of()
-    dimmers = [{"name": k, "before": _fmt(start.get(k)), "after": _fmt(after_dimmers.get(k, v))}
+    # before: the config's design, where the fit started; after: the fit's record, which is
+    # read from the optimised Design (the results' own, results.design)
+    start = study.design.dimmer_of()
+    dimmers = [{"name": k, "before": _fmt(start.get(k)), "after": _fmt(v)}
                for k, v in (opt.get("dimmers") or {}).items()]
     aims = [{"name": k, **{a: _fmt(v.get(a)) for a in ("tilt", "pan", "spin")}}
             for k, v in (opt.get("aims") or {}).items()]
