@@ -179,6 +179,7 @@ def build_scene(cfg: StudyConfig) -> Scene:
         group=np.concatenate(grp) if grp else np.zeros(0, int),
         closed=np.array(closed, bool),
     )
+    _warn_coincident(triangles, cfg, src)
 
     photometries = {}
     for name, p in cfg.photometry.items():
@@ -323,6 +324,27 @@ def _grid(g, frame: Frame, src, key: str) -> Grid:
     pts = plane_grid_points(origin, u, v, nu, nv)
     return Grid(g.name, pts, np.broadcast_to(n, pts.shape).copy(), shape=(nu, nv),
                 origin=origin, u=u, v=v, target_lux=g.target_lux)
+
+
+def _warn_coincident(tri, cfg: StudyConfig, src) -> None:
+    """Warn of same-facing coincident surfaces of two geometry items (``_coplanar``)."""
+    import warnings
+
+    from ..errors import LumijaxWarning
+    from ._coplanar import coincident_surfaces
+
+    def name(i: int) -> str:
+        g = cfg.geometry[i]
+        label = f"geometry[{i}]" if g.name is None else f"geometry {g.name!r} (geometry[{i}])"
+        return f"{label}, a {g.kind}"
+
+    for c in coincident_surfaces(tri.vertices, tri.item):
+        # the item listed later usually is the one laid on the other (a rug on a floor)
+        warnings.warn(
+            f"{src}: {name(c.b)} lies on {name(c.a)} ({c.area_m2:.2f} m² coincident, facing "
+            "the same way): light is counted twice; remove one or offset it by ≥ 1 mm",
+            LumijaxWarning, stacklevel=3,
+        )
 
 
 def _check_luminaires_outside_solids(scene: Scene, cfg: StudyConfig, src) -> None:

@@ -1,0 +1,196 @@
+"""Coincident surfaces: triangles of different geometry items in one plane, facing the same way.
+
+A rectangle lying on a box's floor (common in CAD exports) is seen by the rest of the room on
+top of the floor it covers: the form factors count that area twice, and a lit room gains
+12–18 % light with no error anywhere. :func:`coincident_surfaces` finds such pairs of items;
+``build_scene`` warns naming both (docs/radiosity.md, "Coincident surfaces").
+
+Cost is linear in the triangles: planes are bucketed by quantised normal (1° cells) and offset
+(``distance`` cells) and joined to their neighbouring buckets; only buckets holding two items
+are examined, by sampling the smaller item's triangles and testing the points against the
+other item's triangles through a uniform 2-D grid.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from jaxtyping import Float, Int
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+__all__ = ["Coincidence", "coincident_surfaces"]
+
+DISTANCE = 0.5e-3
+"""m: two planes closer than this are one (a finish 1 mm proud of its wall is not flagged)."""
+
+ANGLE_DEG = 1.0
+"""Normals within this many degrees face the same way."""
+
+MIN_AREA = 1e-3
+"""m²: smaller coincident areas (touching edges, slivers) are not reported."""
+
+_SAMPLES = 4  # a triangle is sampled at the centroids of its 4² sub-triangles
+
+
+@dataclass(frozen=True)
+class Coincidence:
+    """Items ``a`` and ``b`` share ``area_m2`` of surface, facing the same way."""
+
+    a: int
+    b: int
+    area_m2: float
+
+
+def coincident_surfaces(
+    vertices: Float[np.ndarray, "tri 3 3"],
+    item: Int[np.ndarray, " tri"],
+    *,
+    distance: float = DISTANCE,
+    angle_deg: float = ANGLE_DEG,
+    min_area: float = MIN_AREA,
+) -> list[Coincidence]:
+    """Pairs of geometry items (``item`` per triangle) with coincident, same-facing area.
+
+    Parameters
+    ----------
+    vertices
+        ``(T, 3, 3)`` triangles, m; the front face along ``(v1 − v0) × (v2 − v0)``.
+    distance
+        Largest separation (m) of two planes counted as one.
+    angle_deg
+        Largest angle between two normals counted as the same direction.
+    min_area
+        Smallest coincident area (m²) reported.
+    """
+    v = np.asarray(vertices, np.float64)
+    item = np.asarray(item)
+    if len(v) == 0 or len(np.unique(item)) < 2:
+        return []
+    cross = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    norm = np.linalg.norm(cross, axis=1)
+    ok = norm > 0
+    v, item, cross, norm = v[ok], item[ok], cross[ok], norm[ok]
+    n = cross / norm[:, None]
+    area = 0.5 * norm
+    d = np.einsum("ij,ij->i", n, v.mean(axis=1))
+    step = np.sin(np.radians(angle_deg))
+    keys = np.column_stack([np.round(n / step), np.round(d / distance)]).astype(np.int64)
+    cluster = _clusters(keys)
+    out: dict[tuple[int, int], float] = {}
+    order = np.argsort(cluster, kind="stable")
+    bounds = np.flatnonzero(np.diff(cluster[order])) + 1
+    for members in np.split(order, bounds):
+        items = np.unique(item[members])
+        if len(items) < 2:
+            continue
+        for i, a in enumerate(items):
+            for b in items[i + 1:]:
+                ta, tb = members[item[members] == a], members[item[members] == b]
+                if area[ta].sum() > area[tb].sum():
+                    ta, tb = tb, ta
+                shared = _covered_area(v, n, area, ta, tb, distance, np.cos(np.radians(angle_deg)))
+                if shared >= min_area:
+                    out[(int(a), int(b))] = out.get((int(a), int(b)), 0.0) + shared
+    return [Coincidence(a, b, s) for (a, b), s in sorted(out.items())]
+
+
+def _clusters(keys: np.ndarray) -> np.ndarray:
+    """Connected components of buckets joined to their neighbours (±1 in every key)."""
+    uniq, cell = np.unique(keys, axis=0, return_inverse=True)
+    cell = cell.ravel()
+    span = uniq.max(axis=0) - uniq.min(axis=0) + 3
+    base = uniq - uniq.min(axis=0) + 1
+
+    def code(k):
+        c = np.zeros(len(k), np.int64)
+        for j in range(k.shape[1]):
+            c = c * span[j] + k[:, j]
+        return c
+
+    codes = code(base)
+    sorter = np.argsort(codes)
+    rows, cols = [], []
+    for off in np.stack(np.meshgrid(*[[-1, 0, 1]] * keys.shape[1]), -1).reshape(-1, keys.shape[1]):
+        nb = code(base + off)
+        pos = np.clip(np.searchsorted(codes, nb, sorter=sorter), 0, len(codes) - 1)
+        hit = codes[sorter[pos]] == nb
+        rows.append(np.flatnonzero(hit))
+        cols.append(sorter[pos[hit]])
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(uniq), len(uniq)))
+    _, label = connected_components(graph, directed=False)
+    return label[cell]
+
+
+def _samples(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centroids of the k² congruent sub-triangles of each triangle, ``(T, k², 3)``, and the
+    fraction of the area each stands for."""
+    k = _SAMPLES
+    bary = []
+    for i in range(k):
+        for j in range(k - i):
+            bary.append(((i + 1 / 3) / k, (j + 1 / 3) / k))  # upright sub-triangles
+            if i + j < k - 1:
+                bary.append(((i + 2 / 3) / k, (j + 2 / 3) / k))  # inverted ones
+    bary = np.array(bary)  # (k², 2): weights of v1 and v2
+    p = (v[:, None, 0] + bary[None, :, 0, None] * (v[:, None, 1] - v[:, None, 0])
+         + bary[None, :, 1, None] * (v[:, None, 2] - v[:, None, 0]))
+    return p, np.full(len(bary), 1.0 / len(bary))
+
+
+def _covered_area(v, n, area, ta, tb, distance, cos_min) -> float:
+    """Area of ``ta``'s triangles (m²) that lies on a triangle of ``tb`` in the same plane."""
+    pts, w = _samples(v[ta])
+    weight = (area[ta][:, None] * w[None]).ravel()
+    pn = np.repeat(n[ta], pts.shape[1], axis=0)
+    pts = pts.reshape(-1, 3)
+    # 2-D frame of the bucket's plane for the grid
+    axis = n[tb].mean(axis=0)
+    axis /= np.linalg.norm(axis)
+    e1 = np.cross(axis, [1.0, 0, 0] if abs(axis[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    to2 = np.stack([e1, e2], axis=1)
+    tri2 = v[tb] @ to2  # (B, 3, 2)
+    p2 = pts @ to2
+    lo, hi = tri2.min(axis=1), tri2.max(axis=1)
+    cell = max(2.0 * np.sqrt(area[tb].sum() / len(tb)), distance)
+    origin = lo.min(axis=0)
+    c0 = np.floor((lo - origin) / cell).astype(np.int64)
+    c1 = np.floor((hi - origin) / cell).astype(np.int64)
+    width = int(c1[:, 0].max()) + 1
+    nx, ny = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
+    count = nx * ny
+    tri_of = np.repeat(np.arange(len(tb)), count)
+    local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    cx = c0[tri_of, 0] + local % np.repeat(nx, count)
+    cy = c0[tri_of, 1] + local // np.repeat(nx, count)
+    cell_code = cy * width + cx
+    order = np.argsort(cell_code, kind="stable")
+    cell_code, tri_of = cell_code[order], tri_of[order]
+    pc = np.floor((p2 - origin) / cell).astype(np.int64)
+    inside_grid = (pc[:, 0] >= 0) & (pc[:, 1] >= 0) & (pc[:, 0] < width)
+    pcode = np.where(inside_grid, pc[:, 1] * width + pc[:, 0], -1)
+    start = np.searchsorted(cell_code, pcode, "left")
+    stop = np.searchsorted(cell_code, pcode, "right")
+    k = stop - start
+    pid = np.repeat(np.arange(len(pts)), k)
+    cand = tri_of[np.repeat(start, k) + (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k))]
+    t = tb[cand]
+    q = pts[pid]
+    same = np.einsum("ij,ij->i", n[t], pn[pid]) >= cos_min
+    near = np.abs(np.einsum("ij,ij->i", n[t], q - v[t, 0])) <= distance
+    a, b, c = v[t, 0], v[t, 1], v[t, 2]
+    inside = same & near & _in_triangle(q, a, b, c, n[t])
+    covered = np.zeros(len(pts), bool)
+    covered[pid[inside]] = True
+    return float(weight[covered].sum())
+
+
+def _in_triangle(q, a, b, c, n) -> np.ndarray:
+    """Whether each q (projected along n) lies in its triangle abc, edges included."""
+    def side(p0, p1):
+        return np.einsum("ij,ij->i", np.cross(p1 - p0, q - p0), n) >= -1e-12
+    return side(a, b) & side(b, c) & side(c, a)
