@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-from ..kernels import form_factor_point_triangle, pair_illuminance
+from ..kernels import form_factor_point_triangle, length_tolerance, offset_illuminance
 
 __all__ = ["DirectLighting", "direct_illuminance", "sub_source_offsets", "support_cosine"]
 
@@ -62,7 +62,9 @@ def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np
     def count(size: float) -> int:
         if size <= 0:
             return 1
-        return int(min(_MAX_SUB, max(1, math.ceil(5.0 * size / max(distance_m, 1e-9) - 1e-9))))
+        if 5.0 * size >= _MAX_SUB * distance_m:  # also distance 0, at any scale
+            return _MAX_SUB
+        return int(max(1, math.ceil(5.0 * size / distance_m - 1e-9)))
 
     nl, nw = count(length_m), count(width_m)
     xs = ((np.arange(nl) + 0.5) / nl - 0.5) * length_m
@@ -72,9 +74,8 @@ def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np
 
 
 @jax.jit
-def _pair_block(distribution, positions, rotations, scales, points, normals, source, receiver):
-    return pair_illuminance(distribution, positions, rotations, scales, points, normals,
-                            source, receiver)
+def _pair_block(distribution, offsets, rotations, scales, normals, source, receiver):
+    return offset_illuminance(distribution, offsets, rotations, scales, normals, source, receiver)
 
 
 def support_cosine(distribution, threshold: float = 0.0) -> float:
@@ -139,16 +140,16 @@ def direct_illuminance(
     batches = _point_source_batches(scene)
     total = sum(len(b[1]) for b in batches) + len(scene.area_sources)
     done = 0
-    pts_j, nrm_j = jnp.asarray(points), jnp.asarray(normals)
+    nrm_j = jnp.asarray(normals)
     tiles = _Tiles.build(points)
     for phot_name, pos, rot, scale, owner, centre, d_lo, d_hi in batches:
         banded = bool(np.any(d_lo > 0) or np.any(np.isfinite(d_hi)))
         dist = scene.photometries[phot_name].distribution
         cos_support = support_cosine(dist)
         axis = -rot[:, :, 2]  # world direction of each source's photometric axis (local −z)
-        # one padding source of scale 0 at the end, so padded pairs add nothing
-        tables = (jnp.asarray(np.vstack([pos, pos[:1]])),
-                  jnp.asarray(np.concatenate([rot, rot[:1]])),
+        # one padding source of scale 0 at the end, so padded pairs add nothing; positions
+        # stay on the host: the kernel gets float64 offsets (receiver − source), not points
+        tables = (jnp.asarray(np.concatenate([rot, rot[:1]])),
                   jnp.asarray(np.append(scale, 0.0)))
         per_cull = max(1, _CULL_PAIRS // max(len(tiles.radius), 1))
         batch = _SourceBatch(dist, tables, pos, owner)
@@ -167,7 +168,7 @@ def direct_illuminance(
                 src = np.concatenate([p[0] for p in pending])
                 rcv = np.concatenate([p[1] for p in pending])
                 pending, pending_n = [], 0
-                _evaluate_pairs(batch, src, rcv, pts_j, nrm_j, points, caster, out, result)
+                _evaluate_pairs(batch, src, rcv, nrm_j, points, caster, out, result)
             done += len(pos[sl])
             if progress is not None:
                 progress(done, total)
@@ -250,7 +251,10 @@ def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi):
         idx = np.concatenate([tiles.order[tiles.offsets[t]:tiles.offsets[t + 1]] for t in sel])
         d = pts[idx] - pos[li]
         rr = np.sqrt(np.einsum("pk,pk->p", d, d))
-        ok = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) & (d @ axis[li] >= cos_support * rr - 1e-9)
+        # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
+        # 1 µm model and nothing at all at site coordinates
+        ok = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) & (
+            d @ axis[li] >= (cos_support - 1e-9) * rr)
         if centre is not None:
             rc = np.linalg.norm(pts[idx] - centre[li], axis=1)
             ok &= (rc >= d_lo[li]) & (rc < d_hi[li])
@@ -270,8 +274,11 @@ def _bucket(n: int) -> int:
     return min(size, _PAIRS_PER_CALL)
 
 
-def _evaluate_pairs(batch, src, rcv, pts_j, nrm_j, points, caster, out, result) -> None:
-    """Illuminance of candidate pairs, shadowed, summed into ``out[network, point]``."""
+def _evaluate_pairs(batch, src, rcv, nrm_j, points, caster, out, result) -> None:
+    """Illuminance of candidate pairs, shadowed, summed into ``out[network, point]``.
+
+    Each pair's offset ``point − source`` is taken in float64 here, before the kernel (float32
+    by default) sees it: the result then does not depend on where the model sits."""
     n_pts = len(points)
     pad_src = len(batch.positions)
     for c0 in range(0, len(src), _PAIRS_PER_CALL):
@@ -279,8 +286,11 @@ def _evaluate_pairs(batch, src, rcv, pts_j, nrm_j, points, caster, out, result) 
         n = len(s_idx)
         pad = _bucket(n) - n
         t0 = time.perf_counter()
+        offsets = np.zeros((n + pad, 3))
+        offsets[:n] = points[r_idx] - batch.positions[s_idx]
+        offsets[n:, 2] = -1.0  # padding: a unit offset (its scale is 0)
         e = np.array(_pair_block(
-            batch.distribution, *batch.tables, pts_j, nrm_j,
+            batch.distribution, jnp.asarray(offsets), *batch.tables, nrm_j,
             jnp.asarray(np.pad(s_idx, (0, pad), constant_values=pad_src)),
             jnp.asarray(np.pad(r_idx, (0, pad))),
         ), dtype=np.float64)[:n]
@@ -382,8 +392,9 @@ def _area_illuminance(area, points, normals, caster, timing, triangles=None):
     t0 = time.perf_counter()
     tol = None
     if tri is not None and len(tri):
-        ext = np.ptp(np.concatenate([tri.reshape(-1, 3), quad, pts]), axis=0).max()
-        tol = 1e-6 * max(float(ext), 1.0)  # touching within this is not penetrating
+        # touching within this is not penetrating: relative to the scene, never under the
+        # rounding of its coordinates (length_tolerance), so any unit and any site position
+        tol = length_tolerance(np.concatenate([tri.reshape(-1, 3), quad, pts]), 1e-6)
     node_r, pair_node, pair_tri, unknown = _occluder_candidates(pts, normals[lit], quad, tri,
                                                                 caster, tol)
     timing["visibility_test"] = timing.get("visibility_test", 0.0) + time.perf_counter() - t0

@@ -15,19 +15,26 @@ from jaxtyping import Array, Float, Int
 
 from ._form_factors import form_factor_point_triangle
 
-__all__ = ["point_illuminance", "pair_illuminance", "quad_form_factors"]
-
-_TINY = 1e-12
+__all__ = ["point_illuminance", "pair_illuminance", "offset_illuminance", "quad_form_factors"]
 
 
-def _pair(distribution, pos, rot, scale, point, normal):
-    """``s·I(ω)·cos θ / d²`` (lx) for matching rows of sources and receivers."""
-    d = point - pos
-    r2 = jnp.maximum(jnp.sum(d * d, axis=-1), _TINY)
+def _offset(distribution, d, rot, scale, normal):
+    """``s·I(ω)·cos θ / d²`` (lx) from the offsets ``d`` = receiver − source (m).
+
+    The guard on ``d²`` is the dtype's smallest normal number, not a length: a fixed one
+    (1e-12 m² once) clamps every pair of a millimetre model's sub-millimetre parts.
+    """
+    r2 = jnp.sum(d * d, axis=-1)
+    r2 = jnp.maximum(r2, jnp.finfo(r2.dtype).tiny)
     w = d * jax.lax.rsqrt(r2)[..., None]
     local = jnp.einsum("...ij,...i->...j", rot, w)  # rotᵀ·w: the direction in the luminaire frame
     cos_r = jnp.maximum(-jnp.sum(w * normal, axis=-1), 0.0)
     return scale * distribution.intensity(local) * cos_r / r2
+
+
+def _pair(distribution, pos, rot, scale, point, normal):
+    """``s·I(ω)·cos θ / d²`` (lx) for matching rows of sources and receivers."""
+    return _offset(distribution, point - pos, rot, scale, normal)
 
 
 def point_illuminance(
@@ -74,6 +81,25 @@ def pair_illuminance(
     """
     return _pair(distribution, positions[source], rotations[source], scales[source],
                  points[receiver], normals[receiver])
+
+
+def offset_illuminance(
+    distribution,
+    offsets: Float[Array, "pairs 3"],
+    rotations: Float[Array, "lum 3 3"],
+    scales: Float[Array, " lum"],
+    normals: Float[Array, "points 3"],
+    source: Int[Array, " pairs"],
+    receiver: Int[Array, " pairs"],
+) -> Float[Array, " pairs"]:
+    """:func:`pair_illuminance` from each pair's offset ``receiver − source`` (m), which the
+    caller computes in float64 on the host.
+
+    This is the form for site coordinates: in float32, ``point − position`` at 5·10⁶ m from the
+    origin is rounded to 0.5 m before the kernel sees it (a 4 m room read 8 % off there, 34 %
+    at 10⁷ m); the offset itself is a few metres and keeps float32's relative precision.
+    """
+    return _offset(distribution, offsets, rotations[source], scales[source], normals[receiver])
 
 
 def quad_form_factors(

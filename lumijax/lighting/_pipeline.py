@@ -48,8 +48,11 @@ class SolverSettings:
 def auto_patch_size(total_area_m2: float, target_patches: int) -> float:
     """Patch edge (m) giving about ``target_patches`` patches. A triangle of longest edge L is
     cut into ⌈L/s⌉² pieces; for the right triangles of rectangles and boxes (L² = 4 × area
-    of the square they halve) that is 4·area/s² patches per unit area, hence s = √(4A/N)."""
-    return float(max(np.sqrt(4.0 * total_area_m2 / max(target_patches, 1)), 1e-3))
+    of the square they halve) that is 4·area/s² patches per unit area, hence s = √(4A/N).
+    No floor in metres: a 4 mm model wants 0.1 mm patches as a 4 m room wants 0.1 m ones (a
+    1 mm floor once gave a 4 µm model a single patch per face)."""
+    return float(max(np.sqrt(4.0 * total_area_m2 / max(target_patches, 1)),
+                     np.finfo(np.float64).tiny))
 
 
 def solve_lighting(
@@ -125,10 +128,10 @@ def solve_lighting(
 
     t = time.perf_counter()
     size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
+    _check_before_meshing(scene, tri, size, settings)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     if settings.refine:
         from ..radiosity import refine_patches
-    _check_before_meshing(scene, tri, size, settings)
 
         patches = refine_patches(
             patches, lambda p: direct_illuminance(gscene, p.centroid, p.normal).by_network,
@@ -298,9 +301,6 @@ def _gather_in_chunks(points, normals, patches, caster, rays, report):
         weight=np.concatenate([g.weight for g in parts]))
 
 
-def _group_counts(tri, target_patches: int) -> np.ndarray:
-    """Patches per group of the mesh made for ``target_patches`` (the memory check's way to
-    try a setting without building anything on it)."""
 def _check_before_meshing(scene, tri, size: float, settings) -> None:
     """The mesh and a hopeless operator refused before meshing (``_estimate``)."""
     from ..radiosity._estimate import check_before_meshing
@@ -314,6 +314,9 @@ def _check_before_meshing(scene, tri, size: float, settings) -> None:
                          max_block=settings.max_block, file=getattr(scene, "source", None))
 
 
+def _group_counts(tri, target_patches: int) -> np.ndarray:
+    """Patches per group of the mesh made for ``target_patches`` (the memory check's way to
+    try a setting without building anything on it)."""
     from ..radiosity import mesh_patches
 
     size = auto_patch_size(float(tri.areas.sum()), target_patches)

@@ -214,7 +214,8 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
             cand = cand[~blocked]
         # the aim-independent part of the pair kernel (lumijax.kernels._direct._pair)
         dv = d[cand]
-        r2 = np.maximum(np.einsum("ij,ij->i", dv, dv), 1e-12)
+        # no floor in m²: 1e-12 clamped every pair of a micrometre model (cand has r > 0)
+        r2 = np.maximum(np.einsum("ij,ij->i", dv, dv), np.finfo(np.float64).tiny)
         w = dv / np.sqrt(r2)[:, None]
         cos_r = np.maximum(-np.einsum("ij,ij->i", w, rcv_n[cand]), 0.0)
         by_phot.setdefault(lum.photometry, []).append(

@@ -23,7 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..kernels import far_g, form_factor_point_triangle, triangle_spread
+from ..kernels import far_g, form_factor_point_triangle, rounding_length, triangle_spread
 from ._hierarchy import cluster_tree, walk_block_tree
 from ._lowrank import Obstacles, aca_block, block_spheres, truncate_block, well_separated
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
@@ -71,6 +71,12 @@ class FormFactorSettings:
     entry it visits, accepted on its exact error over every entry; a leaf pair that fails is
     computed dense and truncated by SVD with its exact error (see ``docs/radiosity.md``)."""
 
+
+#: Relative margin of the near/far and close/mid choices. A regular mesh puts many pairs exactly
+#: at a threshold (centres 4 diameters apart), and at site coordinates their distance carries
+#: 10⁻⁹ m of rounding: without a margin the same pair is near at the origin and far at 5·10⁶ m
+#: (0.2 % apart in that entry). Ties go to the more accurate (near, close) rule.
+_TIE = 1e-7
 
 _LADDER = np.array([8 * round(32 * 2 ** (k / 2) / 8) for k in range(24)])
 
@@ -216,7 +222,7 @@ def _near_pairs(p: Patches, i, j, s: FormFactorSettings, caster, counters) -> np
         return g
     d = np.linalg.norm(p.centroid[j] - p.centroid[i], axis=1)
     r = d / np.maximum(p.diameter[i], p.diameter[j])
-    close = r < s.close_ratio
+    close = r < s.close_ratio * (1 + _TIE)
     for sel, nsub, rays in ((close, s.close_subdiv, s.close_rays), (~close, s.mid_subdiv, s.mid_rays)):
         ii, jj = i[sel], j[sel]
         if not len(ii):
@@ -247,7 +253,7 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
     cos_i = np.einsum("ijk,ik->ij", d, ni)  # × |d|
     cos_j = -np.einsum("ijk,jk->ij", d, nj)
     size = np.maximum(diam[ia][:, None], diam[ib][None])
-    near = d2 < (s.near_ratio * size) ** 2
+    near = d2 < (s.near_ratio * size) ** 2 * (1 + 2 * _TIE)
     upper = np.triu(np.ones(d2.shape, bool), 1) if diagonal else True
     far = ~near & (cos_i > 0) & (cos_j > 0) & upper
     g = np.zeros(d2.shape)
@@ -266,7 +272,9 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
     ni_i, nj_j = np.nonzero(near & upper)
     if len(ni_i):
         vi, vj = p.vertices[ia[ni_i]], p.vertices[ib[nj_j]]
-        tol = 1e-9 * size[ni_i, nj_j]
+        # in front by more than the rounding of the coordinates: a floor vertex on the wall's
+        # plane is not "in front" of it because the room sits at 10⁷ m
+        tol = np.maximum(1e-9 * size[ni_i, nj_j], rounding_length(np.concatenate([vi, vj])))
         front_j = (np.einsum("nkc,nc->nk", vj - ci[ni_i, None], ni[ni_i]) > tol[:, None]).any(1)
         front_i = (np.einsum("nkc,nc->nk", vi - cj[nj_j, None], nj[nj_j]) > tol[:, None]).any(1)
         keep = front_i & front_j

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from jaxtyping import Float
 
+from ..kernels import length_tolerance
 from ._gather import GatherOperator
 
 __all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather", "reflect_onto_fine"]
@@ -73,7 +74,8 @@ def build_fine_gather(fine, elements, caster, *, rays: int, chunk: int = 32_768)
     # a centroid lies on its own surface: start the rays a hair in front of it
     from ._gather import _cosine_directions, _frames
 
-    lift = 10.0 * float(getattr(caster, "epsilon", 1e-6))
+    eps = None if caster is None else caster.epsilon  # relative to the scene (RayCaster.EPSILON)
+    lift = 10.0 * float(eps if eps is not None else length_tolerance(fine.vertices, 1e-6))
     origins = fine.centroid + lift * fine.normal
     rng = np.random.default_rng(0)
     local = _cosine_directions(rays)

@@ -26,6 +26,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ._partition import bisection_order
+
 __all__ = ["Cluster", "cluster_tree", "walk_block_tree"]
 
 
@@ -74,9 +76,7 @@ def cluster_tree(part, centre: np.ndarray, radius: np.ndarray, dmax: np.ndarray)
         patches = np.concatenate([part.block(b) for b in blocks])
         children: tuple[Cluster, ...] = ()
         if len(blocks) > 1:
-            pts = centre[blocks]
-            axis = int(np.argmax(pts.max(0) - pts.min(0)))
-            order = blocks[np.argsort(pts[:, axis], kind="stable")]
+            order = blocks[bisection_order(centre[blocks])]  # ties broken the same anywhere
             w = np.cumsum(sizes[order])
             cut = int(np.clip(np.searchsorted(w, 0.5 * w[-1]) + 1, 1, len(order) - 1))
             children = (node(order[:cut]), node(order[cut:]))

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels import far_g
+from ..kernels import far_g, length_tolerance
 
 __all__ = ["Obstacles", "aca_block", "block_spheres", "exact_error", "truncate_block",
            "well_separated"]
@@ -52,6 +52,9 @@ def well_separated(s, t, eta: float, near_ratio: float) -> bool:
     """Admissible for low rank: two clusters (or blocks) whose bounding spheres' gap exceeds
     ``eta`` × the larger radius and ``near_ratio`` × the largest patch diameter in them."""
     gap = float(np.linalg.norm(s.centre - t.centre)) - s.radius - t.radius
+    # a relative margin, so that a pair exactly at the threshold (a regular mesh) is decided
+    # the same way wherever the model sits (its rounding is ~1e-16 of the coordinates)
+    gap *= 1 - 1e-7
     return gap > eta * max(s.radius, t.radius) and gap > near_ratio * max(s.max_diameter,
                                                                            t.max_diameter)
 
@@ -68,7 +71,8 @@ class Obstacles:
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         self.tri = tri
         pts = tri.reshape(-1, 3)
-        self.tol = 1e-6 * max(float(np.max(pts.max(0) - pts.min(0))) if len(pts) else 1.0, 1.0)
+        # relative to the scene and above its coordinates' rounding: any unit, any site
+        self.tol = length_tolerance(pts, 1e-6)
         self.lo, self.hi = tri.min(axis=1), tri.max(axis=1)
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         self.normal = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)

@@ -23,6 +23,7 @@ import numpy as np
 from jaxtyping import Float, Int
 
 from ..errors import GeometryError
+from ..kernels import length_tolerance
 from ._patches import Patches
 
 __all__ = ["Partition", "PartitionSettings", "partition"]
@@ -86,16 +87,40 @@ class Partition(eqx.Module):
         return out
 
 
+_TIE = 1e-7
+"""Relative resolution of the bisection (of the set's extent): coordinates closer than this
+are equal, and equal ones keep their index order."""
+
+
+def bisection_order(p: np.ndarray) -> np.ndarray:
+    """Order of points ``p`` (n, 3) along their longest bounding-box side, for a bisection.
+
+    Translation- and scale-invariant, including ties: a square room's x and y sides are equal
+    (the first is taken), and the centroids of a regular mesh share coordinates that rounding at
+    site coordinates (10⁻⁹ m at 5·10⁶ m) would otherwise order at random. So sides within
+    ``_TIE`` of the longest count as equal, and coordinates are compared at ``_TIE`` × the
+    extent, equal ones in index order (a stable sort): the same blocks wherever the model sits.
+    """
+    if len(p) < 2:
+        return np.arange(len(p))
+    lo = p.min(0)
+    ext = p.max(0) - lo
+    longest = float(ext.max())
+    if longest <= 0:
+        return np.arange(len(p))
+    axis = int(np.flatnonzero(ext >= longest * (1 - _TIE))[0])
+    key = np.round((p[:, axis] - lo[axis]) / (_TIE * longest))
+    return np.argsort(key, kind="stable")
+
+
 def _bisect(points: np.ndarray, idx: np.ndarray, k: int, out: list) -> None:
     """Split ``idx`` into ``k`` spatially compact leaves of equal size (±1)."""
     if k <= 1:
         out.append(idx)
         return
-    p = points[idx]
-    axis = int(np.argmax(p.max(0) - p.min(0)))
     k1 = k // 2
     cut = int(round(len(idx) * k1 / k))
-    order = np.argpartition(p[:, axis], cut) if 0 < cut < len(idx) else np.arange(len(idx))
+    order = bisection_order(points[idx])
     _bisect(points, idx[order[:cut]], k1, out)
     _bisect(points, idx[order[cut:]], k - k1, out)
 
@@ -107,8 +132,11 @@ def _facing_max(patches: Patches, members, offsets, lo, hi, chunk: int = 64) -> 
     """
     nb = len(offsets) - 1
     n = patches.normal[members]
-    off = np.einsum("ij,ij->i", n, patches.centroid[members])
-    c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    # about the scene's centre: n·x of site coordinates (10⁷ m) would carry more rounding
+    # than the tolerance this is compared with
+    centre = 0.5 * (lo.min(0) + hi.max(0)) if nb else np.zeros(3)
+    off = np.einsum("ij,ij->i", n, patches.centroid[members] - centre)
+    c, h = 0.5 * (lo + hi) - centre, 0.5 * (hi - lo)
     out = np.empty((nb, nb))
     for s in range(0, nb, chunk):
         val = c[s : s + chunk] @ n.T + h[s : s + chunk] @ np.abs(n).T - off[None]
@@ -170,8 +198,8 @@ def partition(
     v = patches.vertices
     lo = np.array([v[x].reshape(-1, 3).min(0) for x in leaves]).reshape(nb, 3)
     hi = np.array([v[x].reshape(-1, 3).max(0) for x in leaves]).reshape(nb, 3)
-    extent = float(np.max(hi.max(0) - lo.min(0))) if nb else 1.0
-    tol = 1e-9 * max(extent, 1.0)
+    # relative to the scene (any unit) and above its coordinates' rounding (any site)
+    tol = length_tolerance(np.concatenate([lo, hi]), 1e-9) if nb else 0.0
 
     facing = np.zeros((nb, nb), bool)
     if nb:

@@ -18,6 +18,7 @@ import numpy as np
 from jaxtyping import Float, Int
 
 from ..errors import GeometryError
+from ..kernels import triangle_shape
 
 __all__ = ["Patches", "mesh_patches"]
 
@@ -102,6 +103,11 @@ def subdivide_triangles(
 #: A triangle whose longest edge exceeds this many times its height is bisected, not gridded.
 _SLIVER_ASPECT = 3.0
 
+#: Relative margin of the meshing thresholds: a 4 m wall at 0.5 m patches is 8 patches long
+#: wherever it sits, although at 5·10⁶ m its length carries 10⁻⁹ m of rounding (a ratio of
+#: 8.000000001 would otherwise give 9).
+_TIE = 1e-7
+
 
 def bisect_triangles(
     triangles: Float[np.ndarray, "tri 3 3"], source: Int[np.ndarray, " tri"], size: float
@@ -118,7 +124,7 @@ def bisect_triangles(
     while len(tri):
         e = np.linalg.norm(np.roll(tri, -1, axis=1) - tri, axis=-1)  # edge i: vertex i → i+1
         a = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        ok = (e.max(axis=1) <= size * (1 + 1e-9)) | (a <= size**2 / 8)
+        ok = (e.max(axis=1) <= size * (1 + _TIE)) | (a <= size**2 / 8 * (1 + _TIE))
         done_v.append(tri[ok])
         done_s.append(src[ok])
         tri, src, j = tri[~ok], src[~ok], e[~ok].argmax(axis=1)
@@ -172,14 +178,9 @@ def mesh_patches(
         i = int(np.flatnonzero(bad)[0])
         raise GeometryError(f"triangle {i} has a NaN or infinite coordinate: {tri[i].tolist()}",
                             key=f"triangles[{i}]")
-    e = np.stack([tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 1], tri[:, 0] - tri[:, 2]], axis=1)
-    edge = np.linalg.norm(e, axis=-1)
-    longest = edge.max(axis=1)
     cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    area = 0.5 * np.linalg.norm(cross, axis=1)
-    # Zero area relative to the triangle's own size: a sliver whose height is below ~1e-9 of
-    # its length has no defined normal.
-    degenerate = area <= 1e-9 * np.maximum(longest, 1e-300) ** 2
+    # the scene's own rule (relative to each triangle's size, whatever the model's unit)
+    area, longest, degenerate = triangle_shape(tri)
     if degenerate.any():
         i = int(np.flatnonzero(degenerate)[0])
         raise GeometryError(
@@ -187,11 +188,11 @@ def mesh_patches(
             f"{int(degenerate.sum())} degenerate triangle(s) in all",
             key=f"triangles[{i}]",
         )
-    nsub = np.maximum(1, np.ceil(longest / patch_size - 1e-9)).astype(np.int64)
+    nsub = np.maximum(1, np.ceil(longest / patch_size * (1 - _TIE))).astype(np.int64)
     # Slivers (a column face, a cornice band) would give n² needle patches under the regular
     # grid, n set by their length alone: bisect them along their longest edge instead, which
     # costs about 2·length/patch_size patches.
-    sliver = (nsub > 1) & (longest**2 > _SLIVER_ASPECT * 2.0 * area)
+    sliver = (nsub > 1) & (longest**2 > _SLIVER_ASPECT * 2.0 * area * (1 + _TIE))
     out_v, out_src = [], []
     if sliver.any():
         v, s = bisect_triangles(tri[sliver], np.flatnonzero(sliver), patch_size)

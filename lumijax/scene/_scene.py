@@ -147,7 +147,7 @@ def build_scene(cfg: StudyConfig) -> Scene:
             tri = box_triangles(g.min, g.max, inward=g.normals == "inward")
             is_closed = g.normals == "outward"
         elif g.kind == "rectangle":
-            if np.linalg.norm(np.cross(g.u, g.v)) <= 1e-12:
+            if np.linalg.norm(np.cross(g.u, g.v)) <= 1e-12 * np.linalg.norm(g.u) * np.linalg.norm(g.v):
                 raise ConfigError("'u' and 'v' are parallel or zero: the rectangle has no area",
                                   file=src, key=key)
             tri = rectangle_triangles(g.origin, g.u, g.v)
@@ -206,7 +206,7 @@ def build_scene(cfg: StudyConfig) -> Scene:
         spectrum = _spectrum(lum.spectrum, src, f"{key}.spectrum")
         if lum.kind == "area":
             u, v = frame.vectors(lum.u), frame.vectors(lum.v)
-            if np.linalg.norm(np.cross(u, v)) <= 1e-12:
+            if np.linalg.norm(np.cross(u, v)) <= 1e-12 * np.linalg.norm(u) * np.linalg.norm(v):
                 raise ConfigError("'u' and 'v' are parallel or zero: the source has no area",
                                   file=src, key=key)
             areas.append(AreaSource(
