@@ -276,7 +276,9 @@ def main(argv: list[str] | None = None) -> int:
     console = _console()
 
     def show_warning(message, category, filename, lineno, file=None, line=None):
-        console.print(f"[yellow]warning:[/yellow] {message}")
+        from rich.markup import escape  # "[solver] method" is text, not a style tag
+
+        console.print(f"[yellow]warning:[/yellow] {escape(str(message))}")
 
     warnings.showwarning = show_warning
     warnings.simplefilter("default", LumijaxWarning)
