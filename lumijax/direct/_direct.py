@@ -569,7 +569,7 @@ def _occluder_candidates(pts, nrm, quad, tri, caster, tol):
     """
     empty = np.zeros(0, np.int64)
     if tri is None or not len(tri):
-        if caster is None or getattr(caster, "n_triangles", 1) == 0:
+        if caster is None or caster.n_triangles == 0:
             return empty, empty, empty, empty
         return empty, empty, empty, np.arange(len(pts))  # no triangles to test: rays only
     tlo, thi = tri.min(axis=1), tri.max(axis=1)

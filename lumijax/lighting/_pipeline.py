@@ -13,7 +13,7 @@ import numpy as np
 from ..direct import direct_illuminance
 from ..errors import LumijaxWarning
 from ..radiosity._gather import build_gather
-from ._solution import LightingSolution, shoot
+from ._solution import Level, LightingSolution, shoot
 from ._spectral import SpectralSetup
 
 __all__ = ["SolverSettings", "solve_lighting", "auto_patch_size"]
@@ -211,7 +211,7 @@ def solve_lighting(
                  direct_pts.by_network)
     timing["solve_and_gather"] = time.perf_counter() - t
     timing.update(shot.timing_s)
-    two = {}
+    fine_level = None
     if fine is not None:
         from ..radiosity._final_gather import final_gather
 
@@ -220,11 +220,11 @@ def solve_lighting(
                            shot.value, direct_fine.by_network, rays=settings.gather_rays)
         timing["final_gather"] = time.perf_counter() - t
         timing.update(lvl.timing_s)
-        two = dict(fine_patches=fine, fine_gather=lvl.gather, fine_rho=lvl.rho,
-                   fine_patch_direct=per_network(lvl.direct),
-                   fine_patch_indirect=per_network(lvl.indirect),
-                   fine_radiosity=per_network(lvl.radiosity),
-                   fine_radiosity_xyz=per_network(lvl.radiosity_xyz))
+        fine_level = Level(patches=fine, gather=lvl.gather, rho=lvl.rho,
+                           patch_direct=per_network(lvl.direct),
+                           patch_indirect=per_network(lvl.indirect),
+                           radiosity=per_network(lvl.radiosity),
+                           radiosity_xyz=per_network(lvl.radiosity_xyz))
     res = shot.result
     escaped = np.asarray(res.escaped).ravel()
     stats.update(iterations=int(res.iterations), residual=float(res.residual),
@@ -247,11 +247,13 @@ def solve_lighting(
             "light leaves it (to the sky) — fine outdoors, a modelling gap indoors",
             LumijaxWarning, stacklevel=2,
         )
+    coarse = dataclasses.replace(
+        blank.coarse, patch_direct=per_network(direct_patch.by_network),
+        radiosity=per_network(shot.radiosity), radiosity_xyz=per_network(shot.radiosity_xyz))
     return dataclasses.replace(
-        blank, patch_direct=per_network(direct_patch.by_network),
-        radiosity=per_network(shot.radiosity), radiosity_xyz=per_network(shot.radiosity_xyz),
+        blank, coarse=coarse, fine=fine_level,
         point_indirect=per_network(shot.point_indirect), point_xyz=per_network(shot.point_xyz),
-        stats={**stats, "timing_s": timing}, **two,
+        stats={**stats, "timing_s": timing},
     )
 
 

@@ -43,8 +43,8 @@ __all__ = ["DimmerLight", "AimLight", "build_aim_light", "operator_dtype"]
 class DimmerLight(eqx.Module):
     """``E = α @ total``, ``B = α @ radiosity``: the variables are the network dimmers."""
 
-    total: Float[Array, "net points"]
-    radiosity: Float[Array, "net patches"] | None
+    total: Float[Array | np.ndarray, "net points"]
+    radiosity: Float[Array | np.ndarray, "net patches"] | None
 
     def __call__(self, x):
         k = self.total.shape[0]
@@ -158,9 +158,9 @@ PAIR_THRESHOLD = 1e-4
 def operator_dtype(transport) -> np.dtype:
     """The precision the study's form factors are stored in (that of its solve): solving in
     another would convert every block on every product."""
-    bk = transport.buckets[0] if transport.buckets else None
-    data = None if bk is None else getattr(bk, "blocks", getattr(bk, "u", None))
-    return np.dtype(data.dtype if data is not None else transport.area.dtype)
+    if not transport.buckets:
+        return np.dtype(transport.area.dtype)
+    return np.dtype(transport.buckets[0].dtype)
 
 
 def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims: bool,

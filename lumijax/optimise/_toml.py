@@ -8,6 +8,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..config import FilePhotometry
+
 __all__ = ["optimised_toml"]
 
 
@@ -67,7 +69,7 @@ def optimised_toml(cfg, design, *, aimed=(), levelled=(), base_dir: Path | None,
         t["multiplier"] = round(float(cfg.luminaires[index[name]].multiplier * level), 6)
     # file paths: the validated config holds them resolved; write them for the new folder
     for name, p in cfg.photometry.items():
-        if hasattr(p, "file"):
+        if isinstance(p, FilePhotometry):
             doc["photometry"][name]["file"] = _rel(p.file, base_dir)
     for i, g in enumerate(cfg.geometry):
         if g.kind == "mesh":

@@ -509,7 +509,8 @@ def _read_data(tok: _Tokens, version: str, include: bool) -> dict:
 
 def _build(
     path: Path, version: str, keywords: dict, tilt: TiltTable | None, *, ptype: str,
-    v: np.ndarray, h: np.ndarray, cd: np.ndarray, hline: int, units: float, dims: tuple,
+    v: np.ndarray, h: np.ndarray, cd: np.ndarray, hline: int, units: float,
+    dims: tuple[float, float, float],
     lamp_lm: float | None, absolute: bool, watts: float,
 ) -> Photometry:
     try:

@@ -81,7 +81,7 @@ _TIE = 1e-7
 _LADDER = np.array([8 * round(32 * 2 ** (k / 2) / 8) for k in range(24)])
 
 
-def _pad(n: int) -> int:
+def _pad(n: int | np.integer) -> int:
     """Padded block size: next rung of a √2 ladder (≤ 41 % padding per side)."""
     return int(_LADDER[np.searchsorted(_LADDER, n)])
 
@@ -89,7 +89,7 @@ def _pad(n: int) -> int:
 _RANKS = np.array([4, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512, 768, 1024, 1536])
 
 
-def _pad_rank(r: int) -> int:
+def _pad_rank(r: int | np.integer) -> int:
     return int(_RANKS[np.searchsorted(_RANKS, r)]) if r <= _RANKS[-1] else r
 
 
@@ -359,7 +359,7 @@ def build_operator(
             sblk[slot] = one_b[0] if len(one_b) == 1 else -1
             lr_entries += 2 * len(ia) * len(ib)
         buckets.append(LowRankBucket(*(jnp.asarray(x) for x in (u, v, recv, src, rblk, sblk)),
-                                     chunk))
+                                     chunk=chunk))
     for (sa, sb, diagonal), ks in sorted(keys.items()):
         n = len(ks)
         per_pair = sa * sb * np.dtype(dtype).itemsize
@@ -381,7 +381,8 @@ def build_operator(
             src[slot, : len(ib)] = ib
         buckets.append(
             Bucket(
-                *(jnp.asarray(x) for x in (blocks, recv, src, rblk, sblk)), diagonal, chunk
+                *(jnp.asarray(x) for x in (blocks, recv, src, rblk, sblk)), diagonal=diagonal,
+                chunk=chunk,
             )
         )
     info = Info(

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import abc
 import json
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 import equinox as eqx
 import jax
@@ -44,15 +44,10 @@ class AbstractBucket(eqx.Module):
     storage in the operator file (radiosity/_store.py).
     """
 
+    # Every final bucket has the fields recv, src, recv_block, src_block, chunk and diagonal;
+    # they are not declared here, since an annotation in an equinox Module's body would make it
+    # a (leading) field of every subclass and reorder their constructors.
     kind: eqx.AbstractClassVar[str]
-    if TYPE_CHECKING:  # every final bucket has these; declared here for type checkers only,
-        # since an annotation in an equinox Module's body would make it a (leading) field
-        recv: Int[Array, "n sa"]
-        src: Int[Array, "n sb"]
-        recv_block: Int[Array, " n"]
-        src_block: Int[Array, " n"]
-        chunk: int
-        diagonal: bool
 
     @abc.abstractmethod
     def apply(self, xext: Array, out: Array, only_block=None, block_of=None) -> Array:
@@ -70,13 +65,13 @@ class AbstractBucket(eqx.Module):
 
     @property
     @abc.abstractmethod
-    def data_nbytes(self) -> int:
-        """Bytes of the stored values (blocks or factors), padding included."""
-
-    @property
     def nbytes(self) -> int:
         """Bytes of the stored values and their index arrays (padding included)."""
-        return int(self.data_nbytes + self.recv.nbytes + self.src.nbytes)
+
+    @property
+    @abc.abstractmethod
+    def dtype(self) -> np.dtype:
+        """The storage precision of the values (products compute in the vector's)."""
 
 
 class DenseBucket(AbstractBucket):
@@ -126,8 +121,12 @@ class DenseBucket(AbstractBucket):
         return np.asarray(self.blocks, np.float64)
 
     @property
-    def data_nbytes(self):
-        return int(self.blocks.nbytes)
+    def nbytes(self) -> int:
+        return int(self.blocks.nbytes + self.recv.nbytes + self.src.nbytes)
+
+    @property
+    def dtype(self) -> np.dtype:
+        return np.dtype(self.blocks.dtype)
 
 
 #: The dense bucket under its former name.
@@ -186,8 +185,12 @@ class LowRankBucket(AbstractBucket):
         return np.einsum("nir,njr->nij", u, v)
 
     @property
-    def data_nbytes(self):
-        return int(self.u.nbytes + self.v.nbytes)
+    def nbytes(self) -> int:
+        return int(self.u.nbytes + self.v.nbytes + self.recv.nbytes + self.src.nbytes)
+
+    @property
+    def dtype(self) -> np.dtype:
+        return np.dtype(self.u.dtype)
 
 
 class Info(dict):

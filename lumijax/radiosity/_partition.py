@@ -75,7 +75,7 @@ class Partition(eqx.Module):
     def sizes(self) -> Int[np.ndarray, " blocks"]:
         return np.diff(self.offsets)
 
-    def block(self, b: int) -> Int[np.ndarray, " members"]:
+    def block(self, b: int | np.integer) -> Int[np.ndarray, " members"]:
         """Patch indices of block ``b``."""
         return self.members[self.offsets[b] : self.offsets[b + 1]]
 

@@ -115,18 +115,17 @@ def surface_light(results, *, illuminance: bool = False, target_patches: int = 3
     lighting = results.lighting
     scene = lighting.scene
     # a two-level solve draws its fine patches (the display level); otherwise the patches
-    p = getattr(lighting, "display_patches", lighting.patches)
+    p = lighting.display_patches
     if p is not None and p.n:
-        b = np.asarray(getattr(lighting, "display_radiosity", lighting.radiosity), np.float64)
-        b_xyz = getattr(lighting, "display_radiosity_xyz", lighting.radiosity_xyz)
+        b = np.asarray(lighting.display_radiosity, np.float64)
+        b_xyz = lighting.display_radiosity_xyz
         if b_xyz is not None:
             bxyz = np.moveaxis(np.asarray(b_xyz, np.float64), 1, 2)  # (K, P, 3)
         else:
             bxyz = b[..., None] * _D65
         e = None
         if illuminance:
-            e = (lighting.display_patch_illuminance() if hasattr(
-                lighting, "display_patch_illuminance") else lighting.patch_illuminance())
+            e = lighting.display_patch_illuminance()
     else:
         p, b, e = _direct_patches(scene, target_patches)
         bxyz = b[..., None] * _D65

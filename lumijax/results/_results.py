@@ -214,7 +214,7 @@ class Results:
                                key="design")
         if self.design.only_dimmers_differ(design):
             lighting = self.lighting
-            if lighting is not None and getattr(lighting, "scene", None) is not None:
+            if lighting is not None:
                 lighting = dataclasses.replace(lighting,
                                                scene=lighting.scene.with_design(design))
             return dataclasses.replace(self, design=design, lighting=lighting,

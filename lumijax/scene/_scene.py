@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from jaxtyping import Float
 
-from ..config import StudyConfig
+from ..config import FilePhotometry, StudyConfig
 from ..errors import ConfigError, GeometryError, LumijaxError
 from ._elements import AreaSource, Grid, Luminaire, Material, Network, plane_grid_points
 from ._frames import Frame, aim_angles_towards, resolve_group_frames
@@ -119,8 +119,7 @@ def build_scene(cfg: StudyConfig) -> Scene:
     from .. import photometry as _phot
     from ..config._schema import MAX_MAGNITUDE
     read_photometry = _phot.read_photometry
-    isotropic = getattr(_phot, "isotropic", None)
-    lambertian = getattr(_phot, "lambertian", None)
+    isotropic, lambertian = _phot.isotropic, _phot.lambertian
 
     src = cfg.source
     frames = resolve_group_frames(cfg.groups)
@@ -184,7 +183,7 @@ def build_scene(cfg: StudyConfig) -> Scene:
     photometries = {}
     for name, p in cfg.photometry.items():
         try:
-            if hasattr(p, "file"):
+            if isinstance(p, FilePhotometry):
                 photometries[name] = read_photometry(p.file)
             elif p.kind == "isotropic":
                 photometries[name] = isotropic(p.flux_lm)

@@ -321,7 +321,7 @@ class Spectrum:
         return cls(np.array([360.0, 830.0]), np.array([r, r]), "reflectance", label)
 
     @classmethod
-    def from_srgb(cls, rgb: Sequence[float], *, name: str | None = None) -> Spectrum:
+    def from_srgb(cls, rgb: Sequence[float] | np.ndarray, *, name: str | None = None) -> Spectrum:
         """A reflectance recovered from an sRGB albedo (gamma-encoded, each channel in [0, 1]).
 
         Uses colour-science's Mallett & Yuksel (2019) spectral primary decomposition: the
