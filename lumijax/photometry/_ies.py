@@ -74,7 +74,7 @@ class _Tokens:
             ) from None
         if not math.isfinite(val):
             raise PhotometryError(
-                f"{what} must be a finite number, {self.found(tok)}", file=self.file, line=line
+                f"{what} must be a finite number, found {val}", file=self.file, line=line
             )
         return val, line
 
@@ -271,7 +271,7 @@ def _tilt_file(path: Path, value: str, line: int, allow_outside: bool) -> Path:
     shown = quote(value)
 
     def refuse(why: str) -> PhotometryError:
-        return PhotometryError(f"TILT={shown}: {why}", file=path, line=line)
+        return PhotometryError(f"the file TILT= names ({shown}): {why}", file=path, line=line)
 
     if not value:
         raise refuse("names no file (expected TILT=NONE, TILT=INCLUDE or TILT=<file name>)")
@@ -301,7 +301,7 @@ def _read_tilt_file(path: Path, value: str, line: int, allow_outside: bool) -> T
     except FileProblem as exc:
         what = "was not found" if str(exc) == "not found" else str(exc)
         raise PhotometryError(
-            f"TILT={quote(value)}: the tilt file {what} (looked for {target})",
+            f"the file TILT= names ({quote(value)}) {what} (looked for {target})",
             file=path,
             line=line,
         ) from None

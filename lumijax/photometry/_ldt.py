@@ -57,7 +57,7 @@ class _Lines:
             ) from None
         if not math.isfinite(val):
             raise PhotometryError(
-                f"{what} must be a finite number, found {quote(tok)}",
+                f"{what} must be a finite number, found {val}",
                 file=self.file,
                 line=self.pos,
             )

@@ -24,15 +24,16 @@ __all__ = [
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 # The largest real photometric files are a few hundred kB; this only stops a runaway read.
 MAX_FILE_BYTES = 64 * 2**20
-_QUOTE_CHARS = 40
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
 def quote(token: str) -> str:
-    """``repr`` of a short offending token of the photometric file, cut to 40 characters."""
-    if len(token) <= _QUOTE_CHARS:
-        return repr(token)
-    return repr(token[:_QUOTE_CHARS]) + "…"
+    """What an offending token is, without its text.
+
+    A study may name any readable file as photometry (docs/config.md, "Paths"), so a file that
+    fails to parse may be ``/etc/passwd``: the message gives the line and what was expected, and
+    only the token's length — never its characters."""
+    return f"text of {len(token)} character{'s' if len(token) != 1 else ''}"
 
 
 def split_lines(text: str) -> list[str]:

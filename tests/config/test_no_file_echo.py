@@ -98,8 +98,6 @@ def test_no_file_text_in_any_error(tmp_path, key, content):
     f, message = _error(tmp_path, key, CONTENTS[content])
     if message is None:
         pytest.skip("this content happens to be valid for this key")
-    if key == "photometry.NAME.file" and SECRET in message:  # passes once the readers are fixed
-        pytest.xfail("the IES/EULUMDAT readers still quote a bad token (photometry area)")
     assert SECRET not in message and "hunter2" not in message and "root:x" not in message
     assert str(f) in message  # the error still names the file
 

@@ -66,7 +66,7 @@ def test_wrong_counts_too_many_declared(tmp_path):
 def test_non_numeric_token(tmp_path):
     lines = GOOD.copy()
     lines[9] = "100 85 6O 30 5"  # letter O instead of zero
-    err = _expect(tmp_path, lines, 10, "'6O'")
+    err = _expect(tmp_path, lines, 10, "value 8 of 15.*text of 2 characters")
     assert "candela" in err.message
 
 
@@ -96,7 +96,7 @@ def test_angles_not_ascending(tmp_path):
 def test_tilt_file_missing_and_present(tmp_path):
     lines = GOOD.copy()
     lines[3] = "TILT=lamp.tlt"
-    _expect(tmp_path, lines, 4, "tilt file was not found")
+    _expect(tmp_path, lines, 4, "TILT= names .text of 8 characters. was not found")
     (tmp_path / "lamp.tlt").write_text("2\n3\n0 45\n90\n1 0.9 0.7\n")
     p = read_photometry(tmp_path / "bad.ies")
     assert p.tilt.geometry == 2 and p.tilt.factors == (1.0, 0.9, 0.7)
@@ -135,7 +135,7 @@ def test_ldt_good_and_malformed(tmp_path):
     assert p.format == "ldt" and float(p.distribution.candela[0, 1]) == pytest.approx(200.0)
     bad = good.copy()
     bad[len(good) - 2] = "2OO"
-    _expect(tmp_path, bad, len(good) - 1, "'2OO'", name="bad.ldt")
+    _expect(tmp_path, bad, len(good) - 1, "text of 3 characters", name="bad.ldt")
     _expect(tmp_path, good[:-1], len(good) - 1, "ends early", name="short.ldt")
     neg = good.copy()
     neg[-1] = "-3"

@@ -102,7 +102,7 @@ def test_tilt_factors_must_be_positive(tmp_path):
 def test_non_finite_candela_refused(tmp_path, token):
     path = _write(tmp_path, _edit(IES, 9, f"100 85 {token} 30 5"))
     err = _refused(path, 9, "must be a finite number")
-    assert repr(token) in err.message
+    assert f"found {float(token)}" in err.message
 
 
 def test_candela_beyond_float32_refused_also_after_the_multiplier(tmp_path):
@@ -254,10 +254,10 @@ def test_content_of_a_file_that_is_not_a_tilt_table_is_never_echoed(tmp_path):
     assert "SECRET" not in str(info.value) and "12345" not in str(info.value)
 
 
-def test_long_tokens_of_the_photometric_file_are_cut(tmp_path):
+def test_tokens_of_the_photometric_file_are_never_quoted(tmp_path):
     err = _refused(_write(tmp_path, _edit(IES, 9, "100 85 " + "x" * 500 + " 30 5")), 9,
                    "expected a number")
-    assert "x" * 41 not in str(err) and "x" * 40 in str(err)
+    assert "xx" not in str(err) and "500 characters" in str(err)
 
 
 # ---- encodings, lines, paths --------------------------------------------------------------------
@@ -288,7 +288,7 @@ def test_broken_utf16_and_nul_bytes_refused(tmp_path):
 
 def test_line_numbers_ignore_form_feeds_and_nel(tmp_path):
     lines = _edit(IES, 2, "[TEST] a\x0cb\x85c")  # FF and NEL (cp1252 "…") inside a label
-    _refused(_write(tmp_path, _edit(lines, 9, "100 85 6O 30 5")), 9, "'6O'")
+    _refused(_write(tmp_path, _edit(lines, 9, "100 85 6O 30 5")), 9, "text of 2 characters")
 
 
 def test_directory_is_not_not_found(tmp_path):
