@@ -22,8 +22,15 @@ def read_target_csv(path: Path, *, key: str | None = None) -> Float[np.ndarray, 
     """
     try:
         text = Path(path).read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as e:
-        raise ConfigError(f"cannot read target map: {e}", file=path, key=key) from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"the target map is not UTF-8 text (byte {e.start + 1}): expected a CSV "
+                          "with the header x,y,z,lux", file=path, key=key) from None
+    except IsADirectoryError:
+        raise ConfigError("the target map is a directory, not a CSV file", file=path,
+                          key=key) from None
+    except OSError as e:
+        raise ConfigError(f"cannot read the target map ({e.strerror or type(e).__name__})",
+                          file=path, key=key) from None
     rows = list(csv.reader(text.splitlines()))
     rows = [r for r in rows if r and any(c.strip() for c in r)]
     if not rows:
