@@ -148,3 +148,58 @@ def test_refined_recovers_when_its_inner_solver_breaks_down(regression_rooms):
     assert bool(sol.stats["fallback"])
     assert int(sol.stats["failures"]) >= 2
     assert _true_residual(fc, rho, b0, np.asarray(sol.value, np.float64)) <= 2 * RTOL
+
+
+_NO_X64 = r'''
+import json, sys
+import numpy as np, jax, jax.numpy as jnp, lineax as lx, equinox as eqx
+from lumijax.radiosity._krylov import ColumnBiCGStab, Refinement
+
+rng = np.random.default_rng(58)  # a draw on which lineax.BiCGStab stops without x64
+n = 60
+a = rng.lognormal(0, 1.5, n)  # patch areas over three decades
+g = rng.random((n, n)) * (rng.random((n, n)) < 0.3)
+g = g + g.T
+np.fill_diagonal(g, 0)
+g *= a[:, None] * a[None]  # G = A F, symmetric (reciprocity)
+f = g / a[:, None]
+f /= f.sum(1, keepdims=True).max()  # rows ≤ 1
+rho = rng.uniform(0.3, 0.95, n)
+A = np.eye(n) - rho[:, None] * f
+b = rng.random((n, 3)) * (rng.random((n, 3)) < 0.5)
+b /= np.abs(b).max(0)
+A32, b32 = jnp.asarray(A, jnp.float32), jnp.asarray(b, jnp.float32)
+op = lx.FunctionLinearOperator(lambda x: A32 @ x, jax.ShapeDtypeStruct(b32.shape, jnp.float32))
+out = {"x64": bool(jax.config.read("jax_enable_x64"))}
+solvers = {
+    "lineax": lx.BiCGStab(rtol=0.0, atol=1e-4, max_steps=500),
+    "column": ColumnBiCGStab(atol=1e-4, max_steps=500),
+    "refined": Refinement(inner=ColumnBiCGStab(atol=5e-5, max_steps=500),
+                          fallback=lx.GMRES(rtol=0.0, atol=5e-5, max_steps=50, restart=10),
+                          atol=1e-4, max_products=1000),
+}
+for name, solver in solvers.items():
+    x = np.asarray(lx.linear_solve(op, b32, solver, throw=False).value, np.float64)
+    out[name] = float(np.max(np.abs(b - A @ x)))  # true residual, float64, numpy
+print(json.dumps(out))
+'''
+
+
+def test_float32_without_x64_converges_where_lineax_bicgstab_breaks_down():
+    # The CLI's float32 studies run JAX without 64-bit, where lineax.BiCGStab calls any
+    # negative ρ, α or ω a breakdown (the issue's "breakdown after 4 operator products"). This
+    # needs its own process: the suite runs with x64 on.
+    import json
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"}
+    run = subprocess.run([sys.executable, "-c", _NO_X64], capture_output=True, text=True,
+                         env=env, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    out = json.loads(run.stdout.strip().splitlines()[-1])
+    assert out["x64"] is False
+    assert out["lineax"] > 1e-4  # the failure the per-column BiCGStab was written for
+    assert out["column"] <= 1e-4
+    assert out["refined"] <= 1e-4
