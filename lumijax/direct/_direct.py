@@ -16,6 +16,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -138,7 +139,7 @@ def direct_illuminance(
         return result
     caster = scene.raycaster if shadows and len(scene.triangles) else None
     batches = _point_source_batches(scene)
-    total = sum(len(b[1]) for b in batches) + len(scene.area_sources)
+    total = sum(len(b.position) for b in batches) + len(scene.area_sources)
     done = 0
     nrm_j = jnp.asarray(normals)
     tiles = _Tiles.build(points)
@@ -324,11 +325,25 @@ def _bands(size: float) -> list[tuple[int, float, float]]:
         n, hi = 2 * n, lo
 
 
-def _point_source_batches(scene):
-    """Point sources grouped by photometry: positions, rotations, scales, network index, and
-    the centre and distance band in which each source (or sub-source) applies."""
+class _PointSources(NamedTuple):
+    """Point sources (or sub-sources) of one photometry, one row each: positions (m),
+    rotations, scales (candela multipliers), network index, and the luminaire's centre (m)
+    and the band of distance to it (m) in which the row applies."""
+
+    photometry: str
+    position: np.ndarray
+    rotation: np.ndarray
+    scale: np.ndarray
+    network: np.ndarray
+    centre: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+def _point_source_batches(scene) -> list[_PointSources]:
+    """Point sources grouped by photometry (:class:`_PointSources`)."""
     net_index = {n.name: k for k, n in enumerate(scene.networks)}
-    groups: dict[str, list] = {}
+    groups: dict[str, dict[str, list]] = {}
     for lum in scene.luminaires:
         phot = scene.photometries[lum.photometry]
         rot = lum.rotation
@@ -338,19 +353,20 @@ def _point_source_batches(scene):
         half = 0.5 * float(np.hypot(length, width))
         bands = [(n, lo + half if lo > 0 else 0.0, hi + half) for n, lo, hi in _bands(size)] \
             if size > 0 else [(1, 0.0, np.inf)]
-        g = groups.setdefault(lum.photometry, [[] for _ in range(7)])
+        g = groups.setdefault(lum.photometry, {f: [] for f in _PointSources._fields[1:]})
         for n, lo, hi in bands:
             offsets = np.zeros((1, 3)) if n == 1 else sub_source_offsets(
                 length, width, 5.0 * size / n)
             m = len(offsets)
-            g[0].append(lum.position + offsets @ rot.T)
-            g[1].append(np.broadcast_to(rot, (m, 3, 3)))
-            g[2].append(np.full(m, lum.scale / m))
-            g[3].append(np.full(m, net_index[lum.network]))
-            g[4].append(np.broadcast_to(lum.position, (m, 3)))
-            g[5].append(np.full(m, lo))
-            g[6].append(np.full(m, hi))
-    return [(name, *(np.concatenate(a) for a in arrays)) for name, arrays in groups.items()]
+            g["position"].append(lum.position + offsets @ rot.T)
+            g["rotation"].append(np.broadcast_to(rot, (m, 3, 3)))
+            g["scale"].append(np.full(m, lum.scale / m))
+            g["network"].append(np.full(m, net_index[lum.network]))
+            g["centre"].append(np.broadcast_to(lum.position, (m, 3)))
+            g["lo"].append(np.full(m, lo))
+            g["hi"].append(np.full(m, hi))
+    return [_PointSources(name, **{f: np.concatenate(a) for f, a in arrays.items()})
+            for name, arrays in groups.items()]
 
 
 def _area_illuminance(area, points, normals, caster, timing, triangles=None):
