@@ -77,7 +77,8 @@ def pair_illuminance(
     The same physics as :func:`point_illuminance`, evaluated only where the caller found light
     can arrive (inside a source's beam, on a receiver's front side): for a spot aimed at a facade
     that is a few per cent of all pairs. Index arrays may be padded; pad with a source whose
-    scale is 0.
+    scale is 0. ``point − position`` is taken in the kernel's dtype: at site coordinates in
+    float32 use :func:`offset_illuminance` (what ``lumijax.direct`` does).
     """
     return _pair(distribution, positions[source], rotations[source], scales[source],
                  points[receiver], normals[receiver])
