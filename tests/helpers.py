@@ -1,5 +1,5 @@
 """Test helpers shared across areas (importable as ``helpers``: tests/ is on pytest's path
-through tests/conftest.py)."""
+through tests/conftest.py), and the runtime type checker of the test run."""
 
 from __future__ import annotations
 
@@ -7,8 +7,13 @@ from collections.abc import Callable, Iterable
 
 import jax.numpy as jnp
 import numpy as np
+from beartype import BeartypeConf, beartype
 
-__all__ = ["central_difference"]
+__all__ = ["central_difference", "typechecker"]
+
+#: The runtime checker pyproject's ``--jaxtyping-packages`` applies: beartype with PEP 484's
+#: numeric tower (an int is accepted where a float is annotated, as mypy reads it).
+typechecker = beartype(conf=BeartypeConf(is_pep484_tower=True))
 
 
 def central_difference(f: Callable, x, h: float = 1e-6,

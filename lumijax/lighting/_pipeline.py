@@ -154,7 +154,7 @@ def solve_lighting(
     estimate, part = bound_operator_memory(
         patches, max_block=settings.max_block, itemsize=np.dtype(dtype).itemsize,
         caster=caster, triangles=len(tri), two_levels=fine is not None,
-        file=getattr(scene, "source", None), patch_size=None if fine is not None else size,
+        file=scene.source, patch_size=None if fine is not None else size,
         requested=settings.operator_patches if fine is not None else (
             None if settings.patch_size else settings.target_patches),
         remesh=lambda n: _group_counts(tri, n))
@@ -313,7 +313,7 @@ def _check_before_meshing(scene, tri, size: float, settings) -> None:
         esize = esize if esize > size else None
     check_before_meshing(tri.vertices, tri.group, size, element_size=esize,
                          itemsize=8 if settings.precision == "float64" else 4,
-                         max_block=settings.max_block, file=getattr(scene, "source", None))
+                         max_block=settings.max_block, file=scene.source)
 
 
 def _group_counts(tri, target_patches: int) -> np.ndarray:

@@ -44,7 +44,7 @@ class Camera:
 
 def cameras_of(study) -> list[Camera]:
     """The study's ``[cameras]`` in config order, or one automatic overview when it has none."""
-    cams = getattr(study.config, "cameras", None) or {}
+    cams = study.config.cameras
     if cams:
         return [Camera.from_config(name, c) for name, c in cams.items()]
     return [overview_camera(study.scene)]

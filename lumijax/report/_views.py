@@ -103,7 +103,7 @@ def fitting_colour(luminaire, dimmer: float) -> np.ndarray:
     display allows, fading to the dark body colour as its dimmer goes to 0."""
     import colour
 
-    spectrum = getattr(luminaire, "spectrum", None)
+    spectrum = luminaire.spectrum  # Luminaire and AreaSource both carry one (or None)
     lin = np.ones(3) if spectrum is None else _lamp_rgb(spectrum)
     body = np.full(3, 0.02)
     d = float(np.clip(dimmer, 0.0, 1.0))

@@ -220,7 +220,7 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         _write_text(staging, "results.json",
                     json.dumps(results.to_dict(), indent=1, allow_nan=False))
         written.append("results.json")
-        if getattr(results, "optimisation", None) is not None:
+        if results.optimisation is not None:
             # the optimised study, its file paths relative to where it will live
             _write_text(staging, "optimised.toml", results.optimisation.config_text(out_dir))
             written.append("optimised.toml")
