@@ -50,7 +50,9 @@ class GatherOperator:
     @property
     def coverage(self) -> Float[np.ndarray, " points"]:
         """Fraction of each point's (cosine-weighted) hemisphere that sees a patch."""
-        return np.bincount(self.point, weights=self.weight, minlength=self.n_points)
+        # float even with no rays (numpy's bincount of empty weights is integer)
+        return np.bincount(self.point, weights=self.weight,
+                           minlength=self.n_points).astype(np.float64, copy=False)
 
 
 def _cosine_directions(n: int) -> Float[np.ndarray, "n 3"]:
