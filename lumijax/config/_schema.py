@@ -57,13 +57,17 @@ MAX_MAGNITUDE = 1e9
 def _finite(v: float) -> float:
     if not math.isfinite(v):
         raise ValueError("must be a finite number")
+    return v
+
+
+def _bounded(v: float) -> float:
     if abs(v) > MAX_MAGNITUDE:
         raise ValueError(f"{v:g} is beyond ±{MAX_MAGNITUDE:g} (m for coordinates, degrees for "
                          "angles): a typo, not a model")
     return v
 
 
-Finite = Annotated[float, AfterValidator(_finite)]
+Finite = Annotated[float, AfterValidator(_finite), AfterValidator(_bounded)]
 Positive = Annotated[float, Field(gt=0), AfterValidator(_finite)]
 NonNegative = Annotated[float, Field(ge=0), AfterValidator(_finite)]
 

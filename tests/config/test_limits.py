@@ -141,3 +141,19 @@ def test_results_json_never_holds_a_non_finite_number():
         g.to_dict()
     assert "grids.floor.by_network_lux" in e.value.key
     assert "1 of 3 values are not finite" in e.value.message and "[0, 1]" in e.value.message
+
+
+def test_the_api_refuses_aims_without_photometric_luminaires(write_study):
+    # [optimise] overrides passed to lumijax.optimise skip the config's check: the fit itself
+    # refuses (it used to end in lineax's non-finite linear solve)
+    import lumijax
+
+    text = ROOM.replace('photometry = "iso"\nposition = [2, 1.5, 2.5]',
+                        'kind = "area"\norigin = [1, 1, 2.9]\nu = [0.5, 0, 0]\nv = [0, -0.5, 0]'
+                        '\nflux_lm = 1000')
+    study = lumijax.load_study(write_study("[solver]\nindirect = false\ncache = false\n" + text
+                                           + "nu = 4\nnv = 3\ntarget_lux = 100\n[optimise]\n"))
+    results = lumijax.compute(study)
+    with pytest.raises(ConfigError) as e:
+        lumijax.optimise(study, results, variables=["dimmers", "aims"])
+    assert e.value.key == "optimise.variables" and "photometric" in e.value.message
