@@ -1,8 +1,8 @@
 """Direct illuminance on receiver points from every luminaire, with shadows, per network.
 
-The pipeline per batch of sources: a JAX kernel gives unshadowed illuminance for a block of
-(source, point) pairs; only the pairs that receive light get a shadow ray (Embree); the result is
-summed into its network. Luminaires with a large luminous opening are split into sub-sources
+Point sources go through the pair set (``_pairs.py``, shared with the optimiser's aim model):
+per batch, the culled (source, point) pairs get the one kernel and shadow rays where lit, and
+are summed into their network and forgotten. Luminaires with a large luminous opening are split into sub-sources
 where a receiver is closer than five times the opening (the usual 5× rule). Area sources are
 integrated exactly (Lambert's contour integral over the whole rectangle); shadows are looked
 for only where a scene triangle penetrates the receiver's view pyramid of the rectangle, by an
@@ -16,21 +16,16 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-from ..kernels import form_factor_point_triangle, length_tolerance, offset_illuminance
+from ..kernels import form_factor_point_triangle, length_tolerance
+from ._pairs import PairStats, Tiles, bands, pair_chunks, sub_source_offsets, support_cosine
 
 __all__ = ["DirectLighting", "direct_illuminance", "sub_source_offsets", "support_cosine"]
-
-_MAX_SUB = 32  # sub-sources per opening axis: beyond this a bar is closer than 1/6 of its length
-_PAIRS_PER_CALL = 1 << 20  # pairs per kernel call: one compiled shape per photometry
-_CULL_PAIRS = 1 << 18  # (source, tile) pairs per culling step
-_TILE = 256  # receiver points per culling tile
 
 Progress = Callable[[int, int], None]
 
@@ -57,49 +52,6 @@ class DirectLighting:
     timing_s: dict[str, float] = field(default_factory=dict)
 
 
-def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np.ndarray:
-    """Local offsets (m) of the sub-sources a luminous opening is split into for a receiver at
-    ``distance_m``: each piece is at most a fifth of that distance long (capped at 32 a side)."""
-    def count(size: float) -> int:
-        if size <= 0:
-            return 1
-        if 5.0 * size >= _MAX_SUB * distance_m:  # also distance 0, at any scale
-            return _MAX_SUB
-        return int(max(1, math.ceil(5.0 * size / distance_m - 1e-9)))
-
-    nl, nw = count(length_m), count(width_m)
-    xs = ((np.arange(nl) + 0.5) / nl - 0.5) * length_m
-    ys = ((np.arange(nw) + 0.5) / nw - 0.5) * width_m
-    gx, gy = np.meshgrid(xs, ys, indexing="ij")
-    return np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
-
-
-@jax.jit
-def _pair_block(distribution, offsets, rotations, scales, normals, source, receiver):
-    return offset_illuminance(distribution, offsets, rotations, scales, normals, source, receiver)
-
-
-def support_cosine(distribution, threshold: float = 0.0) -> float:
-    """Cosine of the widest angle from the photometric axis at which ``distribution`` can exceed
-    ``threshold`` × its peak (default: be non-zero at all): the bilinear interpolant reaches the
-    neighbours of such samples, and a 2° margin covers Type A/B cells whose interior leans
-    further out than their corners."""
-    cd = np.asarray(distribution.candela)
-    nz = cd > threshold * cd.max()
-    if not nz.any():
-        return 1.0
-    grown = nz.copy()
-    grown[1:] |= nz[:-1]
-    grown[:-1] |= nz[1:]
-    grown[:, 1:] |= nz[:, :-1]
-    grown[:, :-1] |= nz[:, 1:]
-    hh, vv = np.meshgrid(np.asarray(distribution.h_deg), np.asarray(distribution.v_deg),
-                         indexing="ij")
-    dirs = np.asarray(distribution.direction(hh[grown], vv[grown]))
-    widest = np.arccos(np.clip(np.min(-dirs[:, 2]), -1.0, 1.0)) + np.radians(2.0)
-    return float(np.cos(widest)) if widest < np.pi else -1.0
-
-
 def direct_illuminance(
     scene,
     points: Float[np.ndarray, "points 3"],
@@ -120,7 +72,7 @@ def direct_illuminance(
         Cast shadow rays against all of the scene's triangles (default). ``False`` gives the
         unobstructed illuminance, useful to check a design's photometry alone.
     progress
-        Called as ``progress(done, total)`` in units of sources processed.
+        Called as ``progress(done, total)`` in units of photometries and area sources done.
 
     Notes
     -----
@@ -138,42 +90,21 @@ def direct_illuminance(
     if n_pts == 0:
         return result
     caster = scene.raycaster if shadows and len(scene.triangles) else None
-    batches = _point_source_batches(scene)
-    total = sum(len(b.position) for b in batches) + len(scene.area_sources)
-    done = 0
-    nrm_j = jnp.asarray(normals)
-    tiles = _Tiles.build(points)
-    for phot_name, pos, rot, scale, owner, centre, d_lo, d_hi in batches:
-        banded = bool(np.any(d_lo > 0) or np.any(np.isfinite(d_hi)))
-        dist = scene.photometries[phot_name].distribution
-        cos_support = support_cosine(dist)
-        axis = -rot[:, :, 2]  # world direction of each source's photometric axis (local −z)
-        # one padding source of scale 0 at the end, so padded pairs add nothing; positions
-        # stay on the host: the kernel gets float64 offsets (receiver − source), not points
-        tables = (jnp.asarray(np.concatenate([rot, rot[:1]])),
-                  jnp.asarray(np.append(scale, 0.0)))
-        per_cull = max(1, _CULL_PAIRS // max(len(tiles.radius), 1))
-        batch = _SourceBatch(dist, tables, pos, owner)
-        pending: list[tuple[np.ndarray, np.ndarray]] = []
-        pending_n = 0
-        for c0 in range(0, len(pos), per_cull):
-            t0 = time.perf_counter()
-            sl = slice(c0, c0 + per_cull)
-            i, j = _candidates(tiles, points, normals, pos[sl], axis[sl], cos_support,
-                               centre[sl] if banded else None, d_lo[sl], d_hi[sl])
-            result.timing_s["cull"] += time.perf_counter() - t0
-            pending.append(((i + c0).astype(np.int32), j.astype(np.int32)))
-            pending_n += len(i)
-            result.candidate_pairs += len(i)
-            if pending_n >= _PAIRS_PER_CALL or c0 + per_cull >= len(pos):
-                src = np.concatenate([p[0] for p in pending])
-                rcv = np.concatenate([p[1] for p in pending])
-                pending, pending_n = [], 0
-                _evaluate_pairs(batch, src, rcv, nrm_j, points, caster, out, result)
-            done += len(pos[sl])
-            if progress is not None:
-                progress(done, total)
-
+    network = np.array([net_index[lum.network] for lum in scene.luminaires], np.int64)
+    stats = PairStats(timing_s=result.timing_s)
+    phots = {lum.photometry for lum in scene.luminaires}
+    total = len(phots) + len(scene.area_sources)
+    seen: set[str] = set()
+    for c in pair_chunks(scene, points, normals, caster=caster, stats=stats):
+        flat = network[c.luminaire] * n_pts + c.receiver
+        out.reshape(-1)[:] += np.bincount(flat, weights=c.light, minlength=out.size)
+        if progress is not None and c.photometry not in seen:
+            seen.add(c.photometry)
+            progress(len(seen), total)
+    result.candidate_pairs, result.shadow_rays = stats.candidate_pairs, stats.shadow_rays
+    done = len(phots)
+    if progress is not None and done:
+        progress(done, total)
     for area in scene.area_sources:
         e, rays = _area_illuminance(area, points, normals, caster, result.timing_s,
                                     scene.triangles.vertices if caster is not None else None)
@@ -185,190 +116,6 @@ def direct_illuminance(
     return result
 
 
-@dataclass(frozen=True)
-class _SourceBatch:
-    """Sources sharing one distribution: JAX tables (with one scale-0 padding source last),
-    world positions (numpy, for shadow rays) and each source's network index."""
-
-    distribution: object
-    tables: tuple
-    positions: np.ndarray
-    network: np.ndarray
-
-
-@dataclass(frozen=True)
-class _Tiles:
-    """Receiver points clustered by median bisection into tiles of at most ``_TILE`` points:
-    ``order[offsets[t]:offsets[t+1]]`` are tile t's points; each tile has a bounding sphere."""
-
-    order: np.ndarray
-    offsets: np.ndarray
-    centre: np.ndarray
-    radius: np.ndarray
-
-    @classmethod
-    def build(cls, points: np.ndarray) -> _Tiles:
-        leaves: list[np.ndarray] = []
-        stack = [np.arange(len(points))]
-        while stack:
-            idx = stack.pop()
-            if len(idx) <= _TILE:
-                leaves.append(idx)
-                continue
-            p = points[idx]
-            axis = int(np.argmax(np.ptp(p, axis=0)))
-            half = np.argsort(p[:, axis], kind="stable")
-            mid = len(idx) // 2
-            stack += [idx[half[:mid]], idx[half[mid:]]]
-        order = np.concatenate(leaves)
-        offsets = np.concatenate([[0], np.cumsum([len(x) for x in leaves])])
-        centre = np.array([points[x].mean(axis=0) for x in leaves])
-        radius = np.array([np.linalg.norm(points[x] - c, axis=1).max()
-                           for x, c in zip(leaves, centre, strict=True)])
-        return cls(order, offsets, centre, radius)
-
-
-def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi):
-    """``(source, point)`` pairs that can receive light: the point faces the source, lies in
-    the support cone of its beam and (sub-sources) in its distance band.
-
-    Whole tiles are rejected first by a cone–sphere and a band–sphere test, so a narrow spot
-    costs little more than the points it lights.
-    """
-    v = tiles.centre[None, :, :] - pos[:, None, :]  # (src, tiles, 3)
-    dist = np.linalg.norm(v, axis=2)
-    r = tiles.radius[None, :]
-    # angle to the tile centre minus the tile's angular radius must be within the cone
-    cos_c = np.einsum("ltk,lk->lt", v, axis) / np.maximum(dist, 1e-300)
-    ang = np.arccos(np.clip(cos_c, -1.0, 1.0)) - np.arcsin(np.clip(r / np.maximum(dist, 1e-300),
-                                                                   0.0, 1.0))
-    keep = (dist <= r) | (ang <= np.arccos(np.clip(cos_support, -1.0, 1.0)) + 1e-9)
-    if centre is not None:
-        dc = np.linalg.norm(tiles.centre[None, :, :] - centre[:, None, :], axis=2)
-        keep &= (dc + r >= d_lo[:, None]) & (dc - r < d_hi[:, None])
-    src_out, pt_out = [], []
-    for li in np.flatnonzero(keep.any(axis=1)):
-        sel = np.flatnonzero(keep[li])
-        idx = np.concatenate([tiles.order[tiles.offsets[t]:tiles.offsets[t + 1]] for t in sel])
-        d = pts[idx] - pos[li]
-        rr = np.sqrt(np.einsum("pk,pk->p", d, d))
-        # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
-        # 1 µm model and nothing at all at site coordinates
-        ok = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) & (
-            d @ axis[li] >= (cos_support - 1e-9) * rr)
-        if centre is not None:
-            rc = np.linalg.norm(pts[idx] - centre[li], axis=1)
-            ok &= (rc >= d_lo[li]) & (rc < d_hi[li])
-        hit = idx[ok]
-        src_out.append(np.full(len(hit), li, np.int32))
-        pt_out.append(hit.astype(np.int32))
-    if not src_out:
-        return np.zeros(0, np.int32), np.zeros(0, np.int32)
-    return np.concatenate(src_out), np.concatenate(pt_out)
-
-
-def _bucket(n: int) -> int:
-    """Padded call size: powers of 4 from 4096 up, so few shapes are ever compiled."""
-    size = 4096
-    while size < n:
-        size *= 4
-    return min(size, _PAIRS_PER_CALL)
-
-
-def _evaluate_pairs(batch, src, rcv, nrm_j, points, caster, out, result) -> None:
-    """Illuminance of candidate pairs, shadowed, summed into ``out[network, point]``.
-
-    Each pair's offset ``point − source`` is taken in float64 here, before the kernel (float32
-    by default) sees it: the result then does not depend on where the model sits."""
-    n_pts = len(points)
-    pad_src = len(batch.positions)
-    for c0 in range(0, len(src), _PAIRS_PER_CALL):
-        s_idx, r_idx = src[c0:c0 + _PAIRS_PER_CALL], rcv[c0:c0 + _PAIRS_PER_CALL]
-        n = len(s_idx)
-        pad = _bucket(n) - n
-        t0 = time.perf_counter()
-        offsets = np.zeros((n + pad, 3))
-        offsets[:n] = points[r_idx] - batch.positions[s_idx]
-        offsets[n:, 2] = -1.0  # padding: a unit offset (its scale is 0)
-        e = np.array(_pair_block(
-            batch.distribution, jnp.asarray(offsets), *batch.tables, nrm_j,
-            jnp.asarray(np.pad(s_idx, (0, pad), constant_values=pad_src)),
-            jnp.asarray(np.pad(r_idx, (0, pad))),
-        ), dtype=np.float64)[:n]
-        t1 = time.perf_counter()
-        result.timing_s["kernel"] += t1 - t0
-        if caster is not None:
-            lit = np.flatnonzero(e > 0)
-            if len(lit):
-                blocked = caster.occluded(batch.positions[s_idx[lit]], points[r_idx[lit]])
-                e[lit[blocked]] = 0.0
-                result.shadow_rays += len(lit)
-            result.timing_s["shadow_rays"] += time.perf_counter() - t1
-        flat = batch.network[s_idx].astype(np.int64) * n_pts + r_idx
-        out.reshape(-1)[:] += np.bincount(flat, weights=e, minlength=out.size)
-
-
-def _bands(size: float) -> list[tuple[int, float, float]]:
-    """Subdivision levels of an opening of largest side ``size`` (m): ``(pieces, d_min, d_max)``.
-
-    A receiver at distance d from the centre uses the first power of two n with
-    size/n ≤ d/5 (the 5× rule per piece), capped at ``_MAX_SUB``: each receiver pays only for
-    the subdivision its own distance needs.
-    """
-    out, n, hi = [], 1, np.inf
-    while True:
-        lo = 5.0 * size / n
-        if n >= _MAX_SUB:
-            out.append((n, 0.0, hi))
-            return out
-        out.append((n, lo, hi))
-        n, hi = 2 * n, lo
-
-
-class _PointSources(NamedTuple):
-    """Point sources (or sub-sources) of one photometry, one row each: positions (m),
-    rotations, scales (candela multipliers), network index, and the luminaire's centre (m)
-    and the band of distance to it (m) in which the row applies."""
-
-    photometry: str
-    position: np.ndarray
-    rotation: np.ndarray
-    scale: np.ndarray
-    network: np.ndarray
-    centre: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-
-
-def _point_source_batches(scene) -> list[_PointSources]:
-    """Point sources grouped by photometry (:class:`_PointSources`)."""
-    net_index = {n.name: k for k, n in enumerate(scene.networks)}
-    groups: dict[str, dict[str, list]] = {}
-    for lum in scene.luminaires:
-        phot = scene.photometries[lum.photometry]
-        rot = lum.rotation
-        length, width = phot.opening.length_m, phot.opening.width_m
-        size = max(length, width)
-        # bands are on the distance to the opening, ≥ distance to its centre − half-diagonal
-        half = 0.5 * float(np.hypot(length, width))
-        bands = [(n, lo + half if lo > 0 else 0.0, hi + half) for n, lo, hi in _bands(size)] \
-            if size > 0 else [(1, 0.0, np.inf)]
-        g = groups.setdefault(lum.photometry, {f: [] for f in _PointSources._fields[1:]})
-        for n, lo, hi in bands:
-            offsets = np.zeros((1, 3)) if n == 1 else sub_source_offsets(
-                length, width, 5.0 * size / n)
-            m = len(offsets)
-            g["position"].append(lum.position + offsets @ rot.T)
-            g["rotation"].append(np.broadcast_to(rot, (m, 3, 3)))
-            g["scale"].append(np.full(m, lum.scale / m))
-            g["network"].append(np.full(m, net_index[lum.network]))
-            g["centre"].append(np.broadcast_to(lum.position, (m, 3)))
-            g["lo"].append(np.full(m, lo))
-            g["hi"].append(np.full(m, hi))
-    return [_PointSources(name, **{f: np.concatenate(a) for f, a in arrays.items()})
-            for name, arrays in groups.items()]
-
-
 def _area_illuminance(area, points, normals, caster, timing, triangles=None):
     """Illuminance from one Lambertian rectangle: M·(F − Σ_s F_s·(1 − V_s)).
 
@@ -376,7 +123,7 @@ def _area_illuminance(area, points, normals, caster, timing, triangles=None):
     Shadows are then looked for only where they can be: a receiver whose pyramid (apex the
     receiver, base the rectangle) no scene triangle penetrates sees all of it, exactly, with no
     ray at all. Otherwise the rectangle is split as a quadtree, per receiver, over the pieces
-    its distance needs (the 5× rule, :func:`_bands`): a piece whose own pyramid is clear is
+    its distance needs (the 5× rule, :func:`bands`): a piece whose own pyramid is clear is
     fully visible and needs nothing; only the finest pieces that still meet an occluder get
     the four stratified rays and subtract their hidden fraction. The answer is that of
     casting four rays to every finest piece (the former method), at a cost that scales with
@@ -401,7 +148,7 @@ def _area_illuminance(area, points, normals, caster, timing, triangles=None):
     size = float(np.sqrt(max(uu, vv)))
     nu = np.ones(len(lit), np.int64)
     nv = np.ones(len(lit), np.int64)
-    for n, lo, hi in _bands(size):
+    for n, lo, hi in bands(size):
         sel = (dist >= lo) & (dist < hi)
         nu[sel] = max(1, math.ceil(n * np.sqrt(uu) / size - 1e-9))
         nv[sel] = max(1, math.ceil(n * np.sqrt(vv) / size - 1e-9))
@@ -589,7 +336,7 @@ def _occluder_candidates(pts, nrm, quad, tri, caster, tol):
             return empty, empty, empty, empty
         return empty, empty, empty, np.arange(len(pts))  # no triangles to test: rays only
     tlo, thi = tri.min(axis=1), tri.max(axis=1)
-    tiles = _Tiles.build(pts)
+    tiles = Tiles.build(pts)
     qlo, qhi = quad.min(0), quad.max(0)
     pn, pt, unknown = [], [], []
     for t in range(len(tiles.radius)):

@@ -15,7 +15,22 @@ from jaxtyping import Array, Float, Int
 
 from ._form_factors import form_factor_point_triangle
 
-__all__ = ["point_illuminance", "pair_illuminance", "offset_illuminance", "quad_form_factors"]
+__all__ = ["point_illuminance", "pair_illuminance", "pair_light", "offset_illuminance",
+           "quad_form_factors"]
+
+
+def pair_light(
+    distribution,
+    rotations: Float[Array, "*#pairs 3 3"],
+    directions: Float[Array, "*#pairs 3"],
+    gains: Float[Array, "*#pairs"],
+) -> Float[Array, "*#pairs"]:
+    """``gain · I(Rᵀ w)`` (lx): the one point-source kernel. ``directions`` are unit vectors
+    source → receiver (world), ``rotations`` world-from-local per pair, ``gains`` the
+    aim-independent ``scale · cos θ_r / d²`` (m⁻²). Every other point-source form here, the
+    forward light and the optimiser's aim model (``lumijax.direct.PairSet``) evaluate this."""
+    local = jnp.einsum("...ij,...i->...j", rotations, directions)  # Rᵀ·w: luminaire frame
+    return gains * distribution.intensity(local)
 
 
 def _offset(distribution, d, rot, scale, normal):
@@ -27,9 +42,8 @@ def _offset(distribution, d, rot, scale, normal):
     r2 = jnp.sum(d * d, axis=-1)
     r2 = jnp.maximum(r2, jnp.finfo(r2.dtype).tiny)
     w = d * jax.lax.rsqrt(r2)[..., None]
-    local = jnp.einsum("...ij,...i->...j", rot, w)  # rotᵀ·w: the direction in the luminaire frame
     cos_r = jnp.maximum(-jnp.sum(w * normal, axis=-1), 0.0)
-    return scale * distribution.intensity(local) * cos_r / r2
+    return pair_light(distribution, rot, w, scale * cos_r / r2)
 
 
 def _pair(distribution, pos, rot, scale, point, normal):

@@ -10,20 +10,25 @@ solutions at dimmer 1 (the paper's equation 10). No solve, no ray.
 **Aims.** Re-aiming a luminaire changes only its direct light; the visibility of its pairs does
 not change (the paper, §6). So, once, at the starting aims:
 
-1. every (luminaire, receiver) pair that could be lit at *any* aim within the bounds is found —
-   receivers are the grid points and the patch centroids, the cone is the photometry's support
-   cone widened by the largest aim change — and shadow rays keep the unblocked ones;
+1. the direct stage's own pair set (``lumijax.direct.build_pairs``: the same culling, the same
+   sub-sources of large openings, the same shadow rays) is built for the re-aimed luminaires,
+   receivers the grid points and the patch centroids, the support cone widened by the largest
+   aim change; every pair in it gets a shadow ray;
 2. the direct light of the re-aimed luminaires at the start ``D₀`` is taken out of the study's
    solution.
 
-At any aim the direct light is then the pair kernel (``lumijax.direct.pair_illuminance``) over
-the fixed pairs, and the change of inter-reflected light is one radiosity solve of the change of
+At any aim the direct light is then the one pair kernel (``PairSet.light``, that is
+``lumijax.kernels.pair_light``) over the fixed pairs, the kernel the forward light evaluates at
+the start aims, and the change of inter-reflected light is one radiosity solve of the change of
 patch direct light, ``ΔB = (I − ρF)⁻¹ ρ ΔE_patch``, gathered onto the points, ``G ΔB``. Its
 gradient costs one adjoint solve (lineax solves ``(I − ρF)ᵀ`` by implicit differentiation). At
-the starting aims the model reproduces the study exactly; elsewhere it differs from a full
-re-computation in two documented ways: the luminaires are point sources (no near-field split of
-large openings) and the change of inter-reflection is solved in the luminous channel (luminous
-ρ, not spectral). ``lumijax.optimise`` recomputes the final design exactly.
+the starting aims the model's direct light is the forward direct light to float precision
+(tests/optimise/test_pair_set.py); elsewhere it differs from a full re-computation in three
+documented ways: the sub-sources of a large opening keep their start positions (they turn with
+the aim about its centre in a re-computation), the LM-63 TILT factor keeps its start value (it
+follows the lamp's real tilt in a re-computation: the gain holds it), and the change of
+inter-reflection is solved in the luminous channel (luminous ρ, not spectral).
+``lumijax.optimise`` recomputes the final design exactly.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ..direct._direct import support_cosine
+from ..direct import PairSet, build_pairs
 from ..scene._frames import aim_rotation
 
 __all__ = ["DimmerLight", "AimLight", "build_aim_light", "operator_dtype"]
@@ -51,24 +56,6 @@ class DimmerLight(eqx.Module):
         alpha = x[:k]
         b = None if self.radiosity is None else alpha @ self.radiosity
         return alpha @ self.total, b, alpha
-
-
-class _Pairs(eqx.Module):
-    """The fixed (luminaire, receiver) pairs of one photometry. What does not depend on the aim
-    is precomputed: the unit direction from the luminaire to the receiver (world frame) and the
-    gain ``scale · cos θ / d²``, so that at any aim a pair costs one rotation and one candela
-    lookup: ``E = gain · I(Rᵀ w)``."""
-
-    distribution: object
-    source: Int[Array, " pairs"]
-    receiver: Int[Array, " pairs"]
-    direction: Float[Array, "pairs 3"]
-    gain: Float[Array, " pairs"]
-
-    def light(self, rot):
-        """Unweighted direct illuminance (lx) of every pair with luminaire rotations ``rot``."""
-        local = jnp.einsum("pij,pi->pj", rot[self.source], self.direction)
-        return self.gain * self.distribution.intensity(local)
 
 
 class AimLight(eqx.Module):
@@ -88,7 +75,7 @@ class AimLight(eqx.Module):
     tilt0: Float[Array, " v"]
     pan0: Float[Array, " v"]
     spin: Float[Array, " v"]
-    pairs: tuple[_Pairs, ...]
+    pairs: tuple[PairSet, ...]
     transport: object | None
     rho: Float[Array, " patches"] | None
     gather_point: Int[Array, " links"] | None
@@ -123,7 +110,7 @@ class AimLight(eqx.Module):
         out = jnp.zeros(self.n_receivers, self.base.dtype)
         for p in self.pairs:
             dt = p.gain.dtype
-            e = p.light(rot.astype(dt)) * weight.astype(dt)[p.source]
+            e = p.light(rot.astype(dt)) * weight.astype(dt)[p.luminaire]
             out = out + jax.ops.segment_sum(e, p.receiver,
                                             num_segments=self.n_receivers).astype(out.dtype)
         return out
@@ -198,34 +185,11 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     n_pts = len(pts)
     lums = [sc.luminaires[i] for i in variable]
     net_index = {n: k for k, n in enumerate(sc.network_names)}
-    caster = sc.raycaster if len(sc.triangles) else None
     widen = np.asarray(tilt_span) + np.asarray(pan_span) if aims else np.zeros(len(lums))
-    by_phot: dict[str, list[tuple[np.ndarray, ...]]] = {}
-    for v, lum in enumerate(lums):
-        dist = sc.photometries[lum.photometry].distribution
-        half = np.arccos(np.clip(support_cosine(dist, threshold), -1.0, 1.0)) + widen[v]
-        d = rcv - lum.position
-        r = np.linalg.norm(d, axis=1)
-        facing = np.einsum("ij,ij->i", d, rcv_n) < 0
-        cos = d @ lum.axis / np.maximum(r, 1e-300)
-        cand = np.flatnonzero(facing & (r > 0) & (cos >= np.cos(min(half, np.pi)) - 1e-9))
-        if caster is not None and len(cand):
-            blocked = caster.occluded(np.broadcast_to(lum.position, (len(cand), 3)), rcv[cand])
-            cand = cand[~blocked]
-        # the aim-independent part of the pair kernel (lumijax.kernels._direct._pair)
-        dv = d[cand]
-        # no floor in m²: 1e-12 clamped every pair of a micrometre model (cand has r > 0)
-        r2 = np.maximum(np.einsum("ij,ij->i", dv, dv), np.finfo(np.float64).tiny)
-        w = dv / np.sqrt(r2)[:, None]
-        cos_r = np.maximum(-np.einsum("ij,ij->i", w, rcv_n[cand]), 0.0)
-        by_phot.setdefault(lum.photometry, []).append(
-            (np.full(len(cand), v), cand, w, lum.scale * cos_r / r2))
-    pairs = []
-    for name, chunks in by_phot.items():
-        src, rec, w, gain = (np.concatenate([c[i] for c in chunks]) for i in range(4))
-        pairs.append(_Pairs(sc.photometries[name].distribution, jnp.asarray(src, jnp.int32),
-                            jnp.asarray(rec, jnp.int32), jnp.asarray(w.astype(pair_dtype)),
-                            jnp.asarray(gain.astype(pair_dtype))))
+    # the direct stage's own pairs (culling, sub-sources, shadow rays), with the support cone
+    # widened by the aim range: at the start aims they are the forward light
+    pairs, _ = build_pairs(sc, rcv, rcv_n, variable, widen=widen, threshold=threshold,
+                           dtype=pair_dtype)
     k = len(sc.networks)
     network = np.array([net_index[lum.network] for lum in lums], np.int32)
     f = jnp.asarray
@@ -246,7 +210,7 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     start = np.zeros((k, len(rcv)))
     for p in pairs:
         e = np.asarray(p.light(rot0.astype(p.gain.dtype)), np.float64)
-        flat = network[np.asarray(p.source)].astype(np.int64) * len(rcv) + np.asarray(p.receiver)
+        flat = network[np.asarray(p.luminaire)].astype(np.int64) * len(rcv) + np.asarray(p.receiver)
         start += np.bincount(flat, weights=e, minlength=start.size).reshape(start.shape)
     base = lighting.point_total - start[:, :n_pts]
     fields = {"base": f(base.astype(dtype))}

@@ -1,0 +1,392 @@
+"""The (source, receiver) pair set of point-source direct light: built once, by one culling and
+one set of shadow rays, and evaluated by one kernel (:func:`lumijax.kernels.pair_light`) for both
+the forward light (:func:`lumijax.direct.direct_illuminance`) and the optimiser's aim model
+(``lumijax.optimise``).
+
+A pair is a (sub-)source and a receiver that can receive its light: the receiver faces it, lies
+in the cone where the distribution is non-zero (widened by how far the optimiser may turn the
+aim), in the sub-source's distance band (the 5× rule for large openings), and is not shadowed.
+What does not depend on the aim is kept: the unit direction (world frame) and the gain
+``scale · cos θ_r / d²`` (1/m², times cd gives lx; the scale holds the sub-source's share, the
+multiplier, maintenance factor, level and the LM-63 TILT factor of the start aim).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, Int
+
+from ..kernels import pair_light
+
+__all__ = ["PairSet", "PairChunk", "build_pairs", "pair_chunks", "sub_source_offsets",
+           "support_cosine"]
+
+_MAX_SUB = 32  # sub-sources per opening axis: beyond this a bar is closer than 1/6 of its length
+_PAIRS_PER_CALL = 1 << 20  # pairs per kernel call: one compiled shape per photometry
+_CULL_PAIRS = 1 << 18  # (source, tile) pairs per culling step
+_TILE = 256  # receiver points per culling tile
+
+
+class PairSet(eqx.Module):
+    """The fixed pairs of one photometry: ``E = gain · I(Rᵀ w)`` (lx) per pair at any aim.
+
+    Attributes
+    ----------
+    distribution
+        The :class:`lumijax.photometry.CandelaDistribution` (cd) of these sources.
+    luminaire
+        Per pair, the index of its luminaire in the table of rotations given to :meth:`light`
+        (the luminaires the set was built for, in that order).
+    receiver
+        Per pair, the receiver index.
+    direction
+        Unit vector source → receiver, world frame.
+    gain
+        ``scale · cos θ_r / d²`` (m⁻²); blocked pairs are not in the set.
+    """
+
+    distribution: object
+    luminaire: Int[Array, " pairs"]
+    receiver: Int[Array, " pairs"]
+    direction: Float[Array, "pairs 3"]
+    gain: Float[Array, " pairs"]
+
+    def light(self, rotations: Float[Array, "lum 3 3"]) -> Float[Array, " pairs"]:
+        """Direct illuminance (lx) of every pair with world-from-local luminaire
+        ``rotations``."""
+        return pair_light(self.distribution, rotations[self.luminaire], self.direction,
+                          self.gain)
+
+
+class PairChunk(NamedTuple):
+    """A batch of unshadowed-then-shadowed pairs of one photometry (numpy, float64), with the
+    light of each at the start aims (lx)."""
+
+    photometry: str
+    luminaire: np.ndarray
+    receiver: np.ndarray
+    direction: np.ndarray
+    gain: np.ndarray
+    light: np.ndarray
+
+
+@dataclass
+class PairStats:
+    """What building pairs cost: pairs tested, shadow rays cast, seconds per step."""
+
+    candidate_pairs: int = 0
+    shadow_rays: int = 0
+    timing_s: dict | None = None
+
+
+def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np.ndarray:
+    """Local offsets (m) of the sub-sources a luminous opening is split into for a receiver at
+    ``distance_m``: each piece is at most a fifth of that distance long (capped at 32 a side)."""
+    def count(size: float) -> int:
+        if size <= 0:
+            return 1
+        if 5.0 * size >= _MAX_SUB * distance_m:  # also distance 0, at any scale
+            return _MAX_SUB
+        return int(max(1, math.ceil(5.0 * size / distance_m - 1e-9)))
+
+    nl, nw = count(length_m), count(width_m)
+    xs = ((np.arange(nl) + 0.5) / nl - 0.5) * length_m
+    ys = ((np.arange(nw) + 0.5) / nw - 0.5) * width_m
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    return np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
+
+
+def support_cosine(distribution, threshold: float = 0.0) -> float:
+    """Cosine of the widest angle from the photometric axis at which ``distribution`` can exceed
+    ``threshold`` × its peak (default: be non-zero at all): the bilinear interpolant reaches the
+    neighbours of such samples, and a 2° margin covers Type A/B cells whose interior leans
+    further out than their corners."""
+    cd = np.asarray(distribution.candela)
+    nz = cd > threshold * cd.max()
+    if not nz.any():
+        return 1.0
+    grown = nz.copy()
+    grown[1:] |= nz[:-1]
+    grown[:-1] |= nz[1:]
+    grown[:, 1:] |= nz[:, :-1]
+    grown[:, :-1] |= nz[:, 1:]
+    hh, vv = np.meshgrid(np.asarray(distribution.h_deg), np.asarray(distribution.v_deg),
+                         indexing="ij")
+    dirs = np.asarray(distribution.direction(hh[grown], vv[grown]))
+    widest = np.arccos(np.clip(np.min(-dirs[:, 2]), -1.0, 1.0)) + np.radians(2.0)
+    return float(np.cos(widest)) if widest < np.pi else -1.0
+
+
+def bands(size: float) -> list[tuple[int, float, float]]:
+    """Subdivision levels of an opening of largest side ``size`` (m): ``(pieces, d_min, d_max)``.
+
+    A receiver at distance d from the centre uses the first power of two n with
+    size/n ≤ d/5 (the 5× rule per piece), capped at ``_MAX_SUB``: each receiver pays only for
+    the subdivision its own distance needs.
+    """
+    out, n, hi = [], 1, np.inf
+    while True:
+        lo = 5.0 * size / n
+        if n >= _MAX_SUB:
+            out.append((n, 0.0, hi))
+            return out
+        out.append((n, lo, hi))
+        n, hi = 2 * n, lo
+
+
+class _PointSources(NamedTuple):
+    """Point sources (or sub-sources) of one photometry, one row each: positions (m), the
+    luminaire (index into the selection), scales (candela multipliers incl. the sub-source's
+    share), and the luminaire's centre (m) and the band of distance to it (m) where the row
+    applies."""
+
+    photometry: str
+    position: np.ndarray
+    luminaire: np.ndarray
+    scale: np.ndarray
+    centre: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+def _point_sources(scene, selection: Sequence[int]) -> list[_PointSources]:
+    """Point sources of the luminaires ``selection`` grouped by photometry."""
+    groups: dict[str, dict[str, list]] = {}
+    for v, li in enumerate(selection):
+        lum = scene.luminaires[li]
+        phot = scene.photometries[lum.photometry]
+        rot = lum.rotation
+        length, width = phot.opening.length_m, phot.opening.width_m
+        size = max(length, width)
+        # bands are on the distance to the opening, ≥ distance to its centre − half-diagonal
+        half = 0.5 * float(np.hypot(length, width))
+        bnds = [(n, lo + half if lo > 0 else 0.0, hi + half) for n, lo, hi in bands(size)] \
+            if size > 0 else [(1, 0.0, np.inf)]
+        g = groups.setdefault(lum.photometry, {f: [] for f in _PointSources._fields[1:]})
+        for n, lo, hi in bnds:
+            offsets = np.zeros((1, 3)) if n == 1 else sub_source_offsets(
+                length, width, 5.0 * size / n)
+            m = len(offsets)
+            g["position"].append(lum.position + offsets @ rot.T)
+            g["luminaire"].append(np.full(m, v))
+            g["scale"].append(np.full(m, lum.scale / m))
+            g["centre"].append(np.broadcast_to(lum.position, (m, 3)))
+            g["lo"].append(np.full(m, lo))
+            g["hi"].append(np.full(m, hi))
+    return [_PointSources(name, **{f: np.concatenate(a) for f, a in arrays.items()})
+            for name, arrays in groups.items()]
+
+
+@dataclass(frozen=True)
+class Tiles:
+    """Receiver points clustered by median bisection into tiles of at most ``_TILE`` points:
+    ``order[offsets[t]:offsets[t+1]]`` are tile t's points; each tile has a bounding sphere."""
+
+    order: np.ndarray
+    offsets: np.ndarray
+    centre: np.ndarray
+    radius: np.ndarray
+
+    @classmethod
+    def build(cls, points: np.ndarray) -> Tiles:
+        leaves: list[np.ndarray] = []
+        stack = [np.arange(len(points))]
+        while stack:
+            idx = stack.pop()
+            if len(idx) <= _TILE:
+                leaves.append(idx)
+                continue
+            p = points[idx]
+            axis = int(np.argmax(np.ptp(p, axis=0)))
+            half = np.argsort(p[:, axis], kind="stable")
+            mid = len(idx) // 2
+            stack += [idx[half[:mid]], idx[half[mid:]]]
+        order = np.concatenate(leaves)
+        offsets = np.concatenate([[0], np.cumsum([len(x) for x in leaves])])
+        centre = np.array([points[x].mean(axis=0) for x in leaves])
+        radius = np.array([np.linalg.norm(points[x] - c, axis=1).max()
+                           for x, c in zip(leaves, centre, strict=True)])
+        return cls(order, offsets, centre, radius)
+
+
+def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi):
+    """``(source, point)`` pairs that can receive light: the point faces the source, lies in
+    the support cone of its beam (``cos_support`` per source) and (sub-sources) in its distance
+    band.
+
+    Whole tiles are rejected first by a cone–sphere and a band–sphere test, so a narrow spot
+    costs little more than the points it lights.
+    """
+    v = tiles.centre[None, :, :] - pos[:, None, :]  # (src, tiles, 3)
+    dist = np.linalg.norm(v, axis=2)
+    r = tiles.radius[None, :]
+    # angle to the tile centre minus the tile's angular radius must be within the cone
+    cos_c = np.einsum("ltk,lk->lt", v, axis) / np.maximum(dist, 1e-300)
+    ang = np.arccos(np.clip(cos_c, -1.0, 1.0)) - np.arcsin(np.clip(r / np.maximum(dist, 1e-300),
+                                                                   0.0, 1.0))
+    half = np.arccos(np.clip(cos_support, -1.0, 1.0))[:, None]
+    keep = (dist <= r) | (ang <= half + 1e-9)
+    if centre is not None:
+        dc = np.linalg.norm(tiles.centre[None, :, :] - centre[:, None, :], axis=2)
+        keep &= (dc + r >= d_lo[:, None]) & (dc - r < d_hi[:, None])
+    src_out, pt_out = [], []
+    for li in np.flatnonzero(keep.any(axis=1)):
+        sel = np.flatnonzero(keep[li])
+        idx = np.concatenate([tiles.order[tiles.offsets[t]:tiles.offsets[t + 1]] for t in sel])
+        d = pts[idx] - pos[li]
+        rr = np.sqrt(np.einsum("pk,pk->p", d, d))
+        # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
+        # 1 µm model and nothing at all at site coordinates
+        ok = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) & (
+            d @ axis[li] >= (cos_support[li] - 1e-9) * rr)
+        if centre is not None:
+            rc = np.linalg.norm(pts[idx] - centre[li], axis=1)
+            ok &= (rc >= d_lo[li]) & (rc < d_hi[li])
+        hit = idx[ok]
+        src_out.append(np.full(len(hit), li, np.int32))
+        pt_out.append(hit.astype(np.int32))
+    if not src_out:
+        return np.zeros(0, np.int32), np.zeros(0, np.int32)
+    return np.concatenate(src_out), np.concatenate(pt_out)
+
+
+def _bucket(n: int) -> int:
+    """Padded call size: powers of 4 from 4096 up, so few shapes are ever compiled."""
+    size = 4096
+    while size < n:
+        size *= 4
+    return min(size, _PAIRS_PER_CALL)
+
+
+@jax.jit
+def _light_block(distribution, rotations, luminaire, direction, gain):
+    return pair_light(distribution, rotations[luminaire], direction, gain)
+
+
+def _geometry(offsets: np.ndarray, normals: np.ndarray, scale: np.ndarray):
+    """Unit directions and gains ``scale · cos θ_r / d²`` (m⁻²) from offsets receiver − source
+    (m), in float64 on the host: the kernel then never sees a coordinate, only a direction, so
+    the light does not depend on where the model sits. The guard on d² is float64's smallest
+    normal number, not a length (a fixed 1e-12 m² once clamped every pair of a µm model)."""
+    r2 = np.maximum(np.einsum("ij,ij->i", offsets, offsets), np.finfo(np.float64).tiny)
+    w = offsets / np.sqrt(r2)[:, None]
+    cos_r = np.maximum(-np.einsum("ij,ij->i", w, normals), 0.0)
+    return w, scale * cos_r / r2
+
+
+def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = None,
+                widen=None, threshold: float = 0.0, caster=None,
+                stats: PairStats | None = None) -> Iterator[PairChunk]:
+    """The pairs of the luminaires ``selection`` (indices into ``scene.luminaires``, default
+    all) and receivers ``points``/``normals`` (m, unit), in batches of at most about 10⁶.
+
+    ``widen`` (radians per selected luminaire) widens each support cone by the largest aim
+    change, for a pair set that stays valid when the aim turns; then every candidate pair gets
+    a shadow ray, otherwise only those lit at the start aims. ``threshold`` drops pairs where
+    the distribution cannot exceed that fraction of its peak (:func:`support_cosine`).
+    ``caster`` is a ray caster (``None``: no shadows). Batches are yielded, not kept: the
+    forward light sums and forgets them, the aim model keeps the few it needs.
+    """
+    import time
+
+    sel = list(range(len(scene.luminaires))) if selection is None else list(selection)
+    stats = PairStats(timing_s={}) if stats is None else stats
+    timing = stats.timing_s if stats.timing_s is not None else {}
+    for k in ("cull", "kernel", "shadow_rays"):
+        timing.setdefault(k, 0.0)
+    if not len(points) or not sel:
+        return
+    rot_all = np.array([scene.luminaires[i].rotation for i in sel]).reshape(-1, 3, 3)
+    rot_j = jnp.asarray(rot_all)
+    widen = np.zeros(len(sel)) if widen is None else np.asarray(widen, np.float64)
+    tiles = Tiles.build(points)
+    for batch in _point_sources(scene, sel):
+        dist = scene.photometries[batch.photometry].distribution
+        half = np.arccos(np.clip(support_cosine(dist, threshold), -1.0, 1.0))
+        cos_src = np.cos(np.minimum(half + widen[batch.luminaire], np.pi))
+        axis = -rot_all[batch.luminaire, :, 2]  # photometric axis (local −z) of each row
+        banded = bool(np.any(batch.lo > 0) or np.any(np.isfinite(batch.hi)))
+        per_cull = max(1, _CULL_PAIRS // max(len(tiles.radius), 1))
+        pending: list[tuple[np.ndarray, np.ndarray]] = []
+        pending_n = 0
+        n_src = len(batch.position)
+        for c0 in range(0, n_src, per_cull):
+            t0 = time.perf_counter()
+            s = slice(c0, c0 + per_cull)
+            i, j = _candidates(tiles, points, normals, batch.position[s], axis[s], cos_src[s],
+                               batch.centre[s] if banded else None, batch.lo[s], batch.hi[s])
+            timing["cull"] += time.perf_counter() - t0
+            pending.append((i + c0, j))
+            pending_n += len(i)
+            stats.candidate_pairs += len(i)
+            if pending_n < _PAIRS_PER_CALL and c0 + per_cull < n_src:
+                continue
+            src = np.concatenate([p[0] for p in pending]).astype(np.int64)
+            rcv = np.concatenate([p[1] for p in pending]).astype(np.int64)
+            pending, pending_n = [], 0
+            for p0 in range(0, len(src), _PAIRS_PER_CALL):
+                yield _chunk(batch, dist, src[p0:p0 + _PAIRS_PER_CALL],
+                             rcv[p0:p0 + _PAIRS_PER_CALL], points, normals, rot_j, caster,
+                             bool(np.any(widen > 0)), stats, timing)
+
+
+def _chunk(batch, dist, s_idx, r_idx, points, normals, rot_j, caster, all_rays, stats,
+           timing) -> PairChunk:
+    """Geometry, start light and shadow rays of one batch of candidate pairs."""
+    import time
+
+    t0 = time.perf_counter()
+    w, gain = _geometry(points[r_idx] - batch.position[s_idx], normals[r_idx],
+                        batch.scale[s_idx])
+    lum = batch.luminaire[s_idx]
+    n = len(s_idx)
+    pad = _bucket(n) - n
+    w_p = np.zeros((n + pad, 3))
+    w_p[:n], w_p[n:, 2] = w, -1.0  # padding: straight down, gain 0
+    e = np.array(_light_block(dist, rot_j, jnp.asarray(np.pad(lum, (0, pad)).astype(np.int32)),
+                              jnp.asarray(w_p), jnp.asarray(np.pad(gain, (0, pad)))),
+                 dtype=np.float64)[:n]
+    t1 = time.perf_counter()
+    timing["kernel"] += t1 - t0
+    keep = np.ones(n, bool)
+    if caster is not None:
+        test = np.arange(n) if all_rays else np.flatnonzero(e > 0)
+        if len(test):
+            blocked = caster.occluded(batch.position[s_idx[test]], points[r_idx[test]])
+            keep[test[blocked]] = False
+            stats.shadow_rays += len(test)
+        timing["shadow_rays"] += time.perf_counter() - t1
+    if not all_rays:
+        keep &= e > 0  # unlit at the start and never turned: nothing to keep
+    return PairChunk(batch.photometry, lum[keep], r_idx[keep], w[keep], gain[keep], e[keep])
+
+
+def build_pairs(scene, points, normals, selection: Sequence[int], *, widen=None,
+                threshold: float = 0.0, shadows: bool = True, dtype=np.float64
+                ) -> tuple[tuple[PairSet, ...], PairStats]:
+    """The pair sets (one per photometry) of the luminaires ``selection``, kept: what the aim
+    model needs. Same culling and rays as the forward light (:func:`pair_chunks`)."""
+    caster = scene.raycaster if shadows and len(scene.triangles) else None
+    stats = PairStats(timing_s={})
+    points = np.ascontiguousarray(points, np.float64)
+    normals = np.asarray(normals, np.float64)
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    by: dict[str, list[PairChunk]] = {}
+    for c in pair_chunks(scene, points, normals, selection=selection, widen=widen,
+                         threshold=threshold, caster=caster, stats=stats):
+        by.setdefault(c.photometry, []).append(c)
+    out = []
+    for name, chunks in by.items():
+        cat = [np.concatenate([getattr(c, f) for c in chunks]) for f in PairChunk._fields[1:5]]
+        out.append(PairSet(scene.photometries[name].distribution,
+                           jnp.asarray(cat[0], jnp.int32), jnp.asarray(cat[1], jnp.int32),
+                           jnp.asarray(cat[2].astype(dtype)), jnp.asarray(cat[3].astype(dtype))))
+    return tuple(out), stats
