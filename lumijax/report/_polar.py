@@ -13,29 +13,14 @@ _PLANES = {"C": ((0.0, 180.0), (90.0, 270.0)), "B": ((0.0, 180.0), (90.0, 270.0)
 
 
 def intensity_np(dist, d) -> np.ndarray:
-    """Intensity (cd) towards local directions ``d`` (..., 3), evaluated in numpy.
+    """Intensity (cd) towards local directions ``d`` (..., 3), as a numpy array: the
+    distribution's own lookup (:meth:`CandelaDistribution.intensity`), the one the light is
+    computed with, so a data sheet draws what the study lit with (no second interpolant)."""
+    import jax.numpy as jnp
 
-    Type C tables are interpolated bilinearly in (C, γ) here, as
-    :meth:`CandelaDistribution.intensity` does, without JAX: pictures of a handful of
-    photometries would otherwise spend seconds compiling one kernel per table shape. Other
-    types go through ``intensity``.
-    """
     d = np.asarray(d, np.float64)
-    if dist.photometric_type != "C":
-        import jax.numpy as jnp
-
-        return np.asarray(dist.intensity(jnp.asarray(d)), np.float64)
-    from scipy.interpolate import RegularGridInterpolator
-
-    n = np.linalg.norm(d, axis=-1)
-    gamma = np.degrees(np.arccos(np.clip(-d[..., 2] / np.where(n > 0, n, 1.0), -1.0, 1.0)))
-    c = np.degrees(np.arctan2(d[..., 1], d[..., 0])) % 360.0
-    h, v = np.asarray(dist.h_deg, np.float64), np.asarray(dist.v_deg, np.float64)
-    cd = np.asarray(dist.candela, np.float64)
-    if len(h) == 1:  # rotationally symmetric table
-        return np.interp(gamma, v, cd[0], left=0.0, right=0.0)
-    f = RegularGridInterpolator((h, v), cd, bounds_error=False, fill_value=0.0)
-    return f(np.stack([c, gamma], axis=-1))
+    flat = np.asarray(dist.intensity(jnp.asarray(d.reshape(-1, 3))), np.float64)
+    return flat.reshape(d.shape[:-1])
 
 
 def _plane_curve(dist, c_deg: float, gamma: np.ndarray) -> np.ndarray:
