@@ -250,12 +250,17 @@ class LightingSolution:
         return np.asarray(dimmers, np.float64) @ self.coarse.radiosity
 
     def patch_illuminance(self) -> Float[np.ndarray, "net patches"]:
-        """Irradiance on each patch per network (lx): direct + F·B (luminous)."""
+        """Irradiance on each patch per network (lx): direct + F'·B (luminous), with F' the
+        row-corrected form factors the solve used (``radiosity.row_correction``), so that
+        B = ρE holds patch by patch."""
         if self.transport is None:
             return self.coarse.patch_direct
+        from ..radiosity import row_correction
+
         with float64_scope(_float64(self)):
             b = jnp.asarray(self.coarse.radiosity.T, _dtype(self))
-            fb = np.asarray(self.transport.matmul(b)).T
+            c, _ = row_correction(self.transport.row_sums())
+            fb = np.asarray(self.transport.matmul(b * c.astype(b.dtype)[:, None])).T
         return self.coarse.patch_direct + fb
 
     def replace_luminaire(self, index: int, luminaire) -> LightingSolution:
