@@ -238,5 +238,5 @@ def _unshadowed(scene, points, normals, progress) -> LightingSolution:
         scene=scene, points=points, normals=normals, patches=None, transport=None, gather=None,
         spectral=None, rho=None, patch_direct=np.zeros((k, 0)), radiosity=np.zeros((k, 0)),
         radiosity_xyz=None, point_direct=d.by_network, point_indirect=np.zeros_like(d.by_network),
-        point_xyz=None, stats={"shadow_rays": 0},
+        point_xyz=None, stats={"shadow_rays": 0, "shadows": False},
     )

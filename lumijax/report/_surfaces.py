@@ -105,11 +105,13 @@ def _averaging(faces: np.ndarray, n_vertices: int, area: np.ndarray):
 def surface_light(results, *, illuminance: bool = False, target_patches: int = 3000) -> SurfaceLight:
     """The surfaces of a computed study with their light per network.
 
-    From the radiosity patches when inter-reflection was solved (the fine patches of a
-    two-level solve; colour from the spectral solution, or neutral D65 white after a
-    luminous-only solve). Without patches
-    (``indirect = false`` or ``shadows=False``), the scene's triangles are cut into about
-    ``target_patches`` patches and lit by direct light alone (ρE/π), with neutral colour.
+    What is drawn is the solution's own: its patches and their radiosity when inter-reflection
+    was solved (the fine level of a two-level solve; colour from the spectral solution, or
+    neutral D65 white after a luminous-only solve), never a re-mesh. A solution without patches
+    (``indirect = false`` or ``shadows=False``) has no surface light to draw: the scene's
+    triangles are then cut into about ``target_patches`` patches and lit by the direct stage
+    itself (:func:`lumijax.direct.direct_illuminance`, the same pairs and kernel as the grids,
+    with shadows as the solution had them), ρE/π, neutral colour, no inter-reflection.
     ``illuminance`` also keeps the illuminance on the surfaces (lx), for false-colour views.
     """
     lighting = results.lighting
@@ -127,7 +129,9 @@ def surface_light(results, *, illuminance: bool = False, target_patches: int = 3
         if illuminance:
             e = lighting.display_patch_illuminance()
     else:
-        p, b, e = _direct_patches(scene, target_patches)
+        # an unshadowed solution (compute(shadows=False)) says so in its stats
+        p, b, e = _direct_patches(scene, target_patches,
+                                  shadows=bool(lighting.stats.get("shadows", True)))
         bxyz = b[..., None] * _D65
     points, faces, normals = weld(p.vertices, p.normal)
     avg = _averaging(faces, len(points), p.area)
@@ -141,7 +145,7 @@ def surface_light(results, *, illuminance: bool = False, target_patches: int = 3
                         average=avg, illuminance=ill)
 
 
-def _direct_patches(scene, target_patches: int):
+def _direct_patches(scene, target_patches: int, *, shadows: bool = True):
     from ..direct import direct_illuminance
     from ..radiosity import mesh_patches
 
@@ -149,6 +153,6 @@ def _direct_patches(scene, target_patches: int):
     total = float(np.sum(tri.areas))
     size = max(np.sqrt(2.0 * total / max(target_patches, 1)), 1e-3)
     p = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
-    e = direct_illuminance(scene, p.centroid, p.normal).by_network
+    e = direct_illuminance(scene, p.centroid, p.normal, shadows=shadows).by_network
     rho = np.array([m.luminous_reflectance for m in scene.materials])[p.material]
     return p, np.asarray(e, np.float64) * rho, np.asarray(e, np.float64)
