@@ -251,7 +251,7 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         if lighting is not None and lighting.patches is not None:
             from ._vtk import write_patches_vtp
 
-            write_patches_vtp(lighting, lighting.scene.dimmers, staging / "patches.vtp")
+            write_patches_vtp(lighting, results.design.dimmers, staging / "patches.vtp")
             written.append("patches.vtp")
             _step("wrote patches.vtp")
     except OSError as e:
