@@ -14,6 +14,7 @@ multiplier, maintenance factor, level and the LM-63 TILT factor of the start aim
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -295,8 +296,6 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     ``caster`` is a ray caster (``None``: no shadows). Batches are yielded, not kept: the
     forward light sums and forgets them, the aim model keeps the few it needs.
     """
-    import time
-
     sel = list(range(len(scene.luminaires))) if selection is None else list(selection)
     stats = PairStats(timing_s={}) if stats is None else stats
     timing = stats.timing_s if stats.timing_s is not None else {}
@@ -341,8 +340,6 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
 def _chunk(batch, dist, s_idx, r_idx, points, normals, rot_j, caster, all_rays, stats,
            timing) -> PairChunk:
     """Geometry, start light and shadow rays of one batch of candidate pairs."""
-    import time
-
     t0 = time.perf_counter()
     w, gain = _geometry(points[r_idx] - batch.position[s_idx], normals[r_idx],
                         batch.scale[s_idx])
