@@ -78,21 +78,19 @@ def coincident_surfaces(
     step = np.sin(np.radians(angle_deg))
     keys = np.column_stack([np.round(n / step), np.round(d / distance)]).astype(np.int64)
     cluster = _clusters(keys)
+    cos_min = np.cos(np.radians(angle_deg))
     out: dict[tuple[int, int], float] = {}
     order = np.argsort(cluster, kind="stable")
     bounds = np.flatnonzero(np.diff(cluster[order])) + 1
     for members in np.split(order, bounds):
-        items = np.unique(item[members])
-        if len(items) < 2:
+        if len(np.unique(item[members])) < 2:
             continue
-        for i, a in enumerate(items):
-            for b in items[i + 1:]:
-                ta, tb = members[item[members] == a], members[item[members] == b]
-                if area[ta].sum() > area[tb].sum():
-                    ta, tb = tb, ta
-                shared = _covered_area(v, n, area, ta, tb, distance, np.cos(np.radians(angle_deg)))
-                if shared >= min_area:
-                    out[(int(a), int(b))] = out.get((int(a), int(b)), 0.0) + shared
+        # one pass per plane cluster, whatever its item count: every sample against the other
+        # items' triangles (a pass per pair of items was quadratic in the items of a plane, minutes
+        # on a courtyard whose plinths all share the ground plane)
+        for (a, b), shared in _covered_pairs(v, n, area, item, members, distance, cos_min).items():
+            if shared >= min_area:
+                out[(a, b)] = out.get((a, b), 0.0) + shared
     return [Coincidence(a, b, s) for (a, b), s in sorted(out.items())]
 
 
@@ -140,53 +138,64 @@ def _samples(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return p, np.full(len(bary), 1.0 / len(bary))
 
 
-def _covered_area(v, n, area, ta, tb, distance, cos_min) -> float:
-    """Area of ``ta``'s triangles (m²) that lies on a triangle of ``tb`` in the same plane."""
-    pts, w = _samples(v[ta])
-    weight = (area[ta][:, None] * w[None]).ravel()
-    pn = np.repeat(n[ta], pts.shape[1], axis=0)
+def _covered_pairs(v, n, area, item, members, distance, cos_min) -> dict[tuple[int, int], float]:
+    """Coincident area (m²) of each pair of items among the triangles ``members`` of one plane
+    cluster: the area of the smaller item lying on the larger, measured by the smaller item's
+    samples (the larger one's triangles may be too big for their samples to resolve it)."""
+    pts, w = _samples(v[members])
+    weight = (area[members][:, None] * w[None]).ravel()
+    owner = np.repeat(item[members], pts.shape[1])
+    pn = np.repeat(n[members], pts.shape[1], axis=0)
     pts = pts.reshape(-1, 3)
-    # 2-D frame of the bucket's plane for the grid
-    axis = n[tb].mean(axis=0)
+    axis = n[members].mean(axis=0)
     axis /= np.linalg.norm(axis)
     e1 = np.cross(axis, [1.0, 0, 0] if abs(axis[0]) < 0.9 else [0, 1.0, 0])
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
-    to2 = np.stack([e1, e2], axis=1)
-    tri2 = v[tb] @ to2  # (B, 3, 2)
+    to2 = np.stack([e1, np.cross(axis, e1)], axis=1)
+    tri2 = v[members] @ to2  # (M, 3, 2) in the cluster's plane
     p2 = pts @ to2
     lo, hi = tri2.min(axis=1), tri2.max(axis=1)
-    cell = max(2.0 * np.sqrt(area[tb].sum() / len(tb)), distance)
+    cell = max(2.0 * np.sqrt(area[members].sum() / len(members)), distance)
     origin = lo.min(axis=0)
     c0 = np.floor((lo - origin) / cell).astype(np.int64)
     c1 = np.floor((hi - origin) / cell).astype(np.int64)
     width = int(c1[:, 0].max()) + 1
     nx, ny = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
     count = nx * ny
-    tri_of = np.repeat(np.arange(len(tb)), count)
+    tri_of = np.repeat(np.arange(len(members)), count)
     local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    cx = c0[tri_of, 0] + local % np.repeat(nx, count)
-    cy = c0[tri_of, 1] + local // np.repeat(nx, count)
-    cell_code = cy * width + cx
+    cell_code = (c0[tri_of, 1] + local // np.repeat(nx, count)) * width \
+        + c0[tri_of, 0] + local % np.repeat(nx, count)
     order = np.argsort(cell_code, kind="stable")
     cell_code, tri_of = cell_code[order], tri_of[order]
     pc = np.floor((p2 - origin) / cell).astype(np.int64)
     inside_grid = (pc[:, 0] >= 0) & (pc[:, 1] >= 0) & (pc[:, 0] < width)
     pcode = np.where(inside_grid, pc[:, 1] * width + pc[:, 0], -1)
     start = np.searchsorted(cell_code, pcode, "left")
-    stop = np.searchsorted(cell_code, pcode, "right")
-    k = stop - start
+    k = np.searchsorted(cell_code, pcode, "right") - start
     pid = np.repeat(np.arange(len(pts)), k)
-    cand = tri_of[np.repeat(start, k) + (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k))]
-    t = tb[cand]
+    t = members[tri_of[np.repeat(start, k) + (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k))]]
+    other = item[t] != owner[pid]
+    pid, t = pid[other], t[other]
     q = pts[pid]
-    same = np.einsum("ij,ij->i", n[t], pn[pid]) >= cos_min
-    near = np.abs(np.einsum("ij,ij->i", n[t], q - v[t, 0])) <= distance
-    a, b, c = v[t, 0], v[t, 1], v[t, 2]
-    inside = same & near & _in_triangle(q, a, b, c, n[t])
-    covered = np.zeros(len(pts), bool)
-    covered[pid[inside]] = True
-    return float(weight[covered].sum())
+    hit = (np.einsum("ij,ij->i", n[t], pn[pid]) >= cos_min) \
+        & (np.abs(np.einsum("ij,ij->i", n[t], q - v[t, 0])) <= distance) \
+        & _in_triangle(q, v[t, 0], v[t, 1], v[t, 2], n[t])
+    # each sample counts once per other item it lies on
+    lies_on = np.unique(np.column_stack([pid[hit], item[t[hit]]]), axis=0)
+    if not len(lies_on):
+        return {}
+    on = {}
+    for (a, b), s in zip(map(tuple, np.column_stack([owner[lies_on[:, 0]], lies_on[:, 1]])),
+                         weight[lies_on[:, 0]], strict=True):
+        on[(int(a), int(b))] = on.get((int(a), int(b)), 0.0) + float(s)
+    ids, inv = np.unique(item[members], return_inverse=True)
+    size = dict(zip(ids.tolist(), np.bincount(inv.ravel(), weights=area[members]), strict=True))
+    out = {}
+    for a, b in {(min(a, b), max(a, b)) for a, b in on}:
+        small, large = (a, b) if size[a] <= size[b] else (b, a)
+        out[(a, b)] = on.get((small, large), 0.0)
+    return out
 
 
 def _in_triangle(q, a, b, c, n) -> np.ndarray:
