@@ -13,6 +13,7 @@ from pathlib import Path
 
 import jax
 import pytest
+from helpers import box_room
 
 jax.config.update("jax_enable_x64", True)
 
@@ -118,45 +119,9 @@ def two_rooms(tmp_path_factory):
     return study, results
 
 
-BOX_ROOM = """
-[study]
-name = "cli room"
-[solver]
-indirect = false  # tests/cli checks network b against a direct-only closed form
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 2000
-[networks.a]
-dimmer = 0.5
-[networks.b]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.5]
-network = "a"
-[[luminaires]]
-name = "B1"
-photometry = "iso"
-position = [3, 1.5, 2.5]
-network = "b"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-nu = 8
-nv = 6
-target_lux = 100
-"""
+BOX_ROOM = box_room(
+    "indirect = false  # tests/cli checks network b against a direct-only closed form",
+    name="cli room", grid="nu = 8\nnv = 6\ntarget_lux = 100")
 
 
 @pytest.fixture

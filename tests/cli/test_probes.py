@@ -13,42 +13,11 @@ import textwrap
 
 import numpy as np
 import pytest
+from helpers import box_room
 
 from lumijax.cli import main
 
-BASE = """
-[study]
-name = "probe"
-[solver]
-indirect = false
-cache = false
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 2000
-[networks.a]
-dimmer = 0.5
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.5]
-network = "a"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-nu = 8
-nv = 6
-"""
+BASE = box_room("indirect = false\ncache = false", name="probe", networks=("a",))
 RECT = '\n[[geometry]]\nkind = "rectangle"\nmaterial = "wall"\norigin = [1, 1, 1]\n'
 MESH = '\n[[geometry]]\nkind = "mesh"\nmaterial = "wall"\n'
 AREA = ('kind = "area"\norigin = [1, 1, 2.9]\nu = [0.5, 0, 0]\nv = [0, -0.5, 0]\n'

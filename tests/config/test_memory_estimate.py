@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+from helpers import box_room
 
 import lumijax
 from lumijax import SolveError
@@ -24,39 +25,8 @@ from lumijax.radiosity._estimate import (
 from lumijax.scene import RayCaster
 from lumijax.scene._geometry import box_triangles
 
-ROOM = """
-[solver]
-target_patches = 300
-max_block = 64
-gather_rays = 16
-spectral_samples = 0
-cache = false
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 2000
-[networks.a]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.5]
-network = "a"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-nu = 8
-nv = 6
-"""
+ROOM = box_room("target_patches = 300\nmax_block = 64\ngather_rays = 16\nspectral_samples = 0\n"
+                "cache = false", networks=("a",), dimmer_a=None)
 
 
 def _scene(boxes, size):

@@ -11,50 +11,10 @@ import textwrap
 
 import numpy as np
 import pytest
+from helpers import box_room
 
-STUDY = """
-[study]
-name = "precision room"
-[solver]
-precision = "float64"
-target_patches = 60
-cache = false
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 2000
-[networks.a]
-dimmer = 0.5
-[networks.b]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.5]
-network = "a"
-[[luminaires]]
-name = "B1"
-photometry = "iso"
-position = [3, 1.5, 2.5]
-network = "b"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-nu = 4
-nv = 3
-target_lux = 100
-[optimise]
-max_steps = 20
-"""
+STUDY = box_room('precision = "float64"\ntarget_patches = 60\ncache = false', name="precision room",
+                 grid="nu = 4\nnv = 3\ntarget_lux = 100", extra="[optimise]\nmax_steps = 20\n")
 
 # A fresh interpreter with x64 off (the test process has it on: tests/conftest.py). It computes
 # and fits in the scope, then does what compute and optimise did before (switch x64 on for the
