@@ -5,7 +5,6 @@ tolerances every stage shares (relative to the model, never absolute metres: ``_
 
 from ._direct import (
     offset_illuminance as offset_illuminance,
-    pair_illuminance as pair_illuminance,
     pair_light as pair_light,
     point_illuminance as point_illuminance,
     quad_form_factors as quad_form_factors,

@@ -15,7 +15,7 @@ from jaxtyping import Array, Float, Int
 
 from ._form_factors import form_factor_point_triangle
 
-__all__ = ["point_illuminance", "pair_illuminance", "pair_light", "offset_illuminance",
+__all__ = ["point_illuminance", "pair_light", "offset_illuminance",
            "quad_form_factors"]
 
 
@@ -76,28 +76,6 @@ def point_illuminance(
         positions, rotations, scales)
 
 
-def pair_illuminance(
-    distribution,
-    positions: Float[Array, "lum 3"],
-    rotations: Float[Array, "lum 3 3"],
-    scales: Float[Array, " lum"],
-    points: Float[Array, "points 3"],
-    normals: Float[Array, "points 3"],
-    source: Int[Array, " pairs"],
-    receiver: Int[Array, " pairs"],
-) -> Float[Array, " pairs"]:
-    """Unshadowed illuminance (lx) for a list of (source, receiver) index pairs.
-
-    The same physics as :func:`point_illuminance`, evaluated only where the caller found light
-    can arrive (inside a source's beam, on a receiver's front side): for a spot aimed at a facade
-    that is a few per cent of all pairs. Index arrays may be padded; pad with a source whose
-    scale is 0. ``point − position`` is taken in the kernel's dtype: at site coordinates in
-    float32 use :func:`offset_illuminance` (what ``lumijax.direct`` does).
-    """
-    return _pair(distribution, positions[source], rotations[source], scales[source],
-                 points[receiver], normals[receiver])
-
-
 def offset_illuminance(
     distribution,
     offsets: Float[Array, "pairs 3"],
@@ -107,8 +85,8 @@ def offset_illuminance(
     source: Int[Array, " pairs"],
     receiver: Int[Array, " pairs"],
 ) -> Float[Array, " pairs"]:
-    """:func:`pair_illuminance` from each pair's offset ``receiver − source`` (m), which the
-    caller computes in float64 on the host.
+    """Unshadowed illuminance (lx) of (source, receiver) index pairs, from each pair's offset
+    ``receiver − source`` (m), which the caller computes in float64 on the host.
 
     This is the form for site coordinates: in float32, ``point − position`` at 5·10⁶ m from the
     origin is rounded to 0.5 m before the kernel sees it (a 4 m room read 8 % off there, 34 %
