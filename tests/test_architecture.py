@@ -25,6 +25,8 @@ LAYERS = [
     ("lighting",),
     ("design",),
     ("results",),
+    ("glare",),
+    ("compliance",),
     ("_study",),
     ("optimise",),
     ("report",),
