@@ -3,13 +3,16 @@ through tests/conftest.py), and the runtime type checker of the test run."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Iterable
 
 import jax.numpy as jnp
 import numpy as np
 from beartype import BeartypeConf, beartype
 
-__all__ = ["box_room", "central_difference", "typechecker"]
+__all__ = ["area_lamp", "box", "box_room", "central_difference", "lamp", "material", "network",
+           "photometry", "plane_grid", "point_grid", "rectangle", "study", "table", "toml_value",
+           "typechecker"]
 
 #: The runtime checker pyproject's ``--jaxtyping-packages`` applies: beartype with PEP 484's
 #: numeric tower (an int is accepted where a float is annotated, as mypy reads it).
@@ -57,3 +60,87 @@ def box_room(solver: str, *, name: str | None = None, networks: tuple[str, ...] 
             f'normals = "inward"\nmaterial = "wall"\n{lums}'
             '[[grids]]\nname = "floor"\nkind = "plane"\norigin = [0, 0, 0.01]\n'
             f"u = [4, 0, 0]\nv = [0, 3, 0]\n{grid.strip()}\n{extra}")
+
+
+# Study text from parts. Each builder writes one TOML table, a key a line, in the order given,
+# exactly the text a test would write out by hand: tests that edit the text (``str.replace``)
+# or check an error's line number read the same lines. Values are Python values (numbers,
+# strings, lists, numpy arrays, dicts as inline tables); a key given as None is left out.
+
+
+def toml_value(v) -> str:
+    """``v`` as a TOML value: numbers as Python writes them, lists as ``[a, b]``, dicts as
+    inline tables ``{ k = v }``."""
+    if isinstance(v, np.ndarray | np.generic):
+        v = v.tolist()
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    return repr(v)
+
+
+def table(header: str, **keys) -> str:
+    """``[header]`` (``[[header]]`` when written so) and its keys, one a line."""
+    head = header if header.startswith("[") else f"[{header}]"
+    return head + "\n" + "".join(f"{k} = {toml_value(v)}\n" for k, v in keys.items()
+                                  if v is not None)
+
+
+def study(*parts: str) -> str:
+    """A study's text: its parts after one empty first line, as a triple-quoted study has."""
+    return "\n" + "".join(parts)
+
+
+def material(name: str, reflectance: float | None = None, **keys) -> str:
+    return table(f"materials.{name}", reflectance=reflectance, **keys)
+
+
+def photometry(name: str, kind: str | None = None, flux_lm: float | None = None, **keys) -> str:
+    """A photometry: ``kind`` (isotropic, lambertian, …) of ``flux_lm`` lm, or ``file = …``."""
+    return table(f"photometry.{name}", kind=kind, flux_lm=flux_lm, **keys)
+
+
+def network(name: str, dimmer: float | None = None, **keys) -> str:
+    return table(f"networks.{name}", dimmer=dimmer, **keys)
+
+
+def box(lo, hi, material: str = "wall", normals: str | None = "inward", **keys) -> str:
+    """A box geometry from corner ``lo`` to ``hi`` (m); ``keys`` follow ``material``."""
+    return table("[[geometry]]", kind="box", min=lo, max=hi, normals=normals, material=material,
+                 **keys)
+
+
+def rectangle(origin, u, v, material: str = "wall", **keys) -> str:
+    """A one-sided rectangle ``origin + s u + t v`` (m), facing ``u × v``."""
+    return table("[[geometry]]", kind="rectangle", origin=origin, u=u, v=v, material=material,
+                 **keys)
+
+
+def lamp(name: str, position, network: str = "n", photometry: str = "iso", **keys) -> str:
+    """A photometric luminaire at ``position`` (m); ``keys`` (aim, spectrum, …) follow."""
+    return table("[[luminaires]]", name=name, photometry=photometry, position=position,
+                 network=network, **keys)
+
+
+def area_lamp(name: str, origin, u, v, flux_lm: float, network: str = "n", **keys) -> str:
+    """A Lambertian area luminaire ``origin + s u + t v`` (m) emitting ``flux_lm`` lm."""
+    return table("[[luminaires]]", name=name, kind="area", origin=origin, u=u, v=v,
+                 flux_lm=flux_lm, network=network, **keys)
+
+
+def plane_grid(name: str, origin, u, v, nu: int | None = None, nv: int | None = None,
+               **keys) -> str:
+    """A plane grid ``origin + s u + t v`` (m) of ``nu × nv`` points."""
+    return table("[[grids]]", name=name, kind="plane", origin=origin, u=u, v=v, nu=nu, nv=nv,
+                 **keys)
+
+
+def point_grid(name: str, pts, normals=None, **keys) -> str:
+    """A grid of the listed points (m), facing ``normals`` (one, or one a point)."""
+    return table("[[grids]]", name=name, kind="points", points=pts, normals=normals, **keys)
+

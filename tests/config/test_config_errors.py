@@ -3,44 +3,16 @@
 from __future__ import annotations
 
 import pytest
+from helpers import box, lamp, material, network, photometry, plane_grid, study
 
 from lumijax import ConfigError, load_study
 from lumijax.config import load_config
 
-BASE = """
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 1000
-[networks.main]
-dimmer = 0.5
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 5, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "L0"
-photometry = "iso"
-position = [1, 1, 2.9]
-network = "main"
-[[luminaires]]
-name = "L1"
-photometry = "iso"
-position = [2, 2.5, 2.9]
-network = "main"
-aim = { tilt = 10, pan = 0 }
-[[grids]]
-name = "wp"
-kind = "plane"
-origin = [0, 0, 0.8]
-u = [4, 0, 0]
-v = [0, 5, 0]
-nu = 8
-nv = 10
-"""
+BASE = study(
+    material("wall", 0.5), photometry("iso", "isotropic", 1000), network("main", 0.5),
+    box([0, 0, 0], [4, 5, 3]), lamp("L0", [1, 1, 2.9], "main"),
+    lamp("L1", [2, 2.5, 2.9], "main", aim={"tilt": 10, "pan": 0}),
+    plane_grid("wp", [0, 0, 0.8], [4, 0, 0], [0, 5, 0], nu=8, nv=10))
 
 
 def test_base_config_is_valid(write_study):

@@ -10,36 +10,16 @@ import math
 
 import numpy as np
 import pytest
+from helpers import box, lamp, material, network, photometry, plane_grid, study
 
 from lumijax import ConfigError, SolveError
 from lumijax.config import parse_config
 from lumijax.config._schema import MAX_GRID_POINTS
 
-ROOM = """
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 1000
-[networks.main]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "L0"
-photometry = "iso"
-position = [2, 1.5, 2.5]
-network = "main"
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [4, 0, 0]
-v = [0, 3, 0]
-"""
+ROOM = study(
+    material("wall", 0.5), photometry("iso", "isotropic", 1000), network("main"),
+    box([0, 0, 0], [4, 3, 3]), lamp("L0", [2, 1.5, 2.5], "main"),
+    plane_grid("floor", [0, 0, 0.01], [4, 0, 0], [0, 3, 0]))
 
 
 def _error(text: str) -> ConfigError:

@@ -4,40 +4,17 @@ the line and what was expected, and never echoes the file's text (docs/config.md
 from __future__ import annotations
 
 import pytest
+from helpers import box, lamp, material, network, photometry, plane_grid, study
 
 from lumijax import load_study
 from lumijax.errors import LumijaxError
 
 SECRET = "SECRET-MARKER-7f3a9c"
 
-BASE = """
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 1000
-[networks.main]
-dimmer = 0.5
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 5, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "L0"
-photometry = "iso"
-position = [1, 1, 2.9]
-network = "main"
-[[grids]]
-name = "wp"
-kind = "plane"
-origin = [0, 0, 0.8]
-u = [4, 0, 0]
-v = [0, 5, 0]
-nu = 4
-nv = 5
-"""
+BASE = study(
+    material("wall", 0.5), photometry("iso", "isotropic", 1000), network("main", 0.5),
+    box([0, 0, 0], [4, 5, 3]), lamp("L0", [1, 1, 2.9], "main"),
+    plane_grid("wp", [0, 0, 0.8], [4, 0, 0], [0, 5, 0], nu=4, nv=5))
 
 # Where the secret sits: the first line (/etc/passwd, /proc/self/environ), a header-shaped
 # line, a value field.
