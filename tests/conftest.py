@@ -13,7 +13,7 @@ from pathlib import Path
 
 import jax
 import pytest
-from helpers import box_room
+from helpers import box, box_room, lamp, material, network, photometry, plane_grid, study, table
 
 jax.config.update("jax_enable_x64", True)
 
@@ -42,67 +42,17 @@ def write_study(tmp_path):
     return write
 
 
-TWO_ROOMS = """
-[study]
-name = "Two rooms"
-description = "Two closed rooms side by side, each on its own dimmer."
-[solver]
-target_patches = 400
-gather_rays = 64
-spectral_samples = 4
-cache = false
-[materials.wall]
-srgb = [0.7, 0.6, 0.5]
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 1000
-[networks.left]
-dimmer = 1.0
-[networks.right]
-dimmer = 0.5
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [3, 3, 2.5]
-normals = "inward"
-material = "wall"
-[[geometry]]
-kind = "box"
-min = [5, 0, 0]
-max = [8, 3, 2.5]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "L1"
-photometry = "iso"
-position = [1.5, 1.5, 2.0]
-network = "left"
-spectrum = "A"
-[[luminaires]]
-name = "R1"
-photometry = "iso"
-position = [6.5, 1.5, 2.0]
-network = "right"
-spectrum = "D65"
-[[grids]]
-name = "floor_left"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [3, 0, 0]
-v = [0, 3, 0]
-nu = 6
-nv = 6
-target_lux = 50
-[[grids]]
-name = "floor_right"
-kind = "plane"
-origin = [5, 0, 0.01]
-u = [3, 0, 0]
-v = [0, 3, 0]
-nu = 6
-nv = 6
-target_lux = 500
-"""
+TWO_ROOMS = study(
+    table("study", name="Two rooms",
+          description="Two closed rooms side by side, each on its own dimmer."),
+    table("solver", target_patches=400, gather_rays=64, spectral_samples=4, cache=False),
+    material("wall", srgb=[0.7, 0.6, 0.5]), photometry("iso", "isotropic", 1000),
+    network("left", 1.0), network("right", 0.5),
+    box([0, 0, 0], [3, 3, 2.5]), box([5, 0, 0], [8, 3, 2.5]),
+    lamp("L1", [1.5, 1.5, 2.0], "left", spectrum="A"),
+    lamp("R1", [6.5, 1.5, 2.0], "right", spectrum="D65"),
+    plane_grid("floor_left", [0, 0, 0.01], [3, 0, 0], [0, 3, 0], nu=6, nv=6, target_lux=50),
+    plane_grid("floor_right", [5, 0, 0.01], [3, 0, 0], [0, 3, 0], nu=6, nv=6, target_lux=500))
 
 
 @pytest.fixture(scope="session")

@@ -20,6 +20,18 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import (
+    area_lamp,
+    box,
+    lamp,
+    material,
+    network,
+    photometry,
+    plane_grid,
+    point_grid,
+    study,
+    table,
+)
 
 import lumijax
 from lumijax.direct import direct_illuminance
@@ -40,70 +52,20 @@ def _study(offset=(0.0, 0.0, 0.0), s=1.0, precision="float32") -> str:
     # the block's corners are generic on purpose: a ray lying exactly in a face's plane (a patch
     # row's centroids at the block's top height) is decided by float32 rounding at any
     # position; see docs/conventions.md, "Tolerances"
-    return f"""
-[solver]
-target_patches = 200
-gather_rays = 48
-spectral_samples = 0
-cache = false
-precision = "{precision}"
-[groups.site]
-translate = [{offset[0]!r}, {offset[1]!r}, {offset[2]!r}]
-scale = {s!r}
-[materials.wall]
-reflectance = 0.6
-[photometry.iso]
-kind = "isotropic"
-flux_lm = {1000.0 * s * s!r}
-[networks.main]
-dimmer = 1.0
-[networks.panel]
-dimmer = 0.5
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 4, 3]
-normals = "inward"
-material = "wall"
-group = "site"
-[[geometry]]
-kind = "box"
-min = [1.0713, 0.9687, 0]
-max = [1.6291, 1.5742, 0.8317]
-normals = "outward"
-material = "wall"
-group = "site"
-[[luminaires]]
-name = "L"
-photometry = "iso"
-position = [2.5, 2.3, 2.6]
-network = "main"
-group = "site"
-[[luminaires]]
-kind = "area"
-name = "P"
-origin = [0.6, 2.9, 2.99]
-u = [0, 0.5, 0]
-v = [0.7, 0, 0]
-flux_lm = {500.0 * s * s!r}
-network = "panel"
-group = "site"
-[[grids]]
-kind = "plane"
-name = "floor"
-origin = [0.05, 0.05, 0.01]
-u = [3.9, 0, 0]
-v = [0, 3.9, 0]
-nu = 6
-nv = 6
-group = "site"
-[[grids]]
-kind = "points"
-name = "wall"
-points = [[3.99, 0.7, 1.0], [3.99, 2.1, 2.2], [3.99, 3.3, 0.4]]
-normals = [-1, 0, 0]
-group = "site"
-"""
+    site = {"group": "site"}
+    return study(
+        table("solver", target_patches=200, gather_rays=48, spectral_samples=0, cache=False,
+              precision=precision),
+        table("groups.site", translate=list(offset), scale=s),
+        material("wall", 0.6), photometry("iso", "isotropic", 1000.0 * s * s),
+        network("main", 1.0), network("panel", 0.5),
+        box([0, 0, 0], [4, 4, 3], **site),
+        box([1.0713, 0.9687, 0], [1.6291, 1.5742, 0.8317], normals="outward", **site),
+        lamp("L", [2.5, 2.3, 2.6], "main", **site),
+        area_lamp("P", [0.6, 2.9, 2.99], [0, 0.5, 0], [0.7, 0, 0], 500.0 * s * s, "panel", **site),
+        plane_grid("floor", [0.05, 0.05, 0.01], [3.9, 0, 0], [0, 3.9, 0], nu=6, nv=6, **site),
+        point_grid("wall", [[3.99, 0.7, 1.0], [3.99, 2.1, 2.2], [3.99, 3.3, 0.4]], [-1, 0, 0],
+                   **site))
 
 
 @pytest.fixture
