@@ -228,7 +228,8 @@ def solve_lighting(
     res = shot.result
     escaped = np.asarray(res.escaped).ravel()
     stats.update(iterations=int(res.iterations), residual=float(res.residual),
-                 escaped_fraction=float(np.max(escaped)) if escaped.size else 0.0)
+                 escaped_fraction=float(np.max(escaped)) if escaped.size else 0.0,
+                 columns_solved=int(res.stats["columns_solved"]))
     created = np.asarray(res.stats["created"]).ravel()
     stats["created_fraction"] = float(np.max(created)) if created.size else 0.0
     if stats["created_fraction"] > CREATED_WARN:

@@ -37,7 +37,7 @@ from jaxtyping import Float
 
 from ..direct import direct_illuminance
 from ..radiosity._gather import GatherOperator
-from ._spectral import SpectralSetup
+from ._spectral import SpectralSetup, solve_spectral
 
 if TYPE_CHECKING:
     from ..radiosity import Patches, TransportOperator
@@ -404,19 +404,15 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
         ``(src, patches)`` and ``(src, points)`` direct illuminance (lx), one row per source
         (group) with spectrum ``spectra[i]`` (None: the default).
     """
-    from ..radiosity import solve_radiosity
-
     t0 = time.perf_counter()
     sp = sol.spectral
     weights = [sp.weights(s) for s in spectra]
     s = np.stack([w[0] for w in weights])  # (src, W)
     h = np.stack([w[1] for w in weights])  # (src, 3, W)
     dtype = _dtype(sol)
-    rho = jnp.asarray(sp.rho, dtype)  # (P, W)
-    b0 = rho[:, None, :] * jnp.asarray(np.asarray(patch_direct).T[:, :, None] * s[None], dtype)
-    res = solve_radiosity(sol.transport, rho[:, None, :], b0, solver=sol.solve_method,
-                          rtol=sol.solve_tolerance, max_steps=sol.solve_max_steps)
-    b = np.asarray(res.value, np.float64)  # (P, src, W)
+    b, res = solve_spectral(sol.transport, sp.rho, patch_direct, s, dtype,  # (P, src, W)
+                            solver=sol.solve_method, rtol=sol.solve_tolerance,
+                            max_steps=sol.solve_max_steps)
     t1 = time.perf_counter()
     b_xyz = np.einsum("scw,psw->scp", h, b)  # (src, 3, P)
     e_ind = np.asarray(sol.gather(jnp.asarray(b, dtype)), np.float64)  # (N, src, W)

@@ -10,6 +10,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from helpers import box, lamp, material, network, photometry, plane_grid, study, table
 
 import lumijax
 from lumijax import load_study
@@ -18,69 +19,16 @@ from lumijax.lighting import solve_lighting
 
 FLUX = 10_000.0
 
-ROOM = """
-[materials.wall]
-reflectance = 0.7
-[materials.floor]
-reflectance = 0.3
-[materials.desk]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 3000
-[photometry.down]
-kind = "lambertian"
-flux_lm = 2000
-[networks.a]
-[networks.b]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 2.5]
-normals = "inward"
-material = "wall"
-[[geometry]]
-kind = "box"
-min = [1.0, 0.8, 0.0]
-max = [2.6, 1.8, 0.75]
-normals = "outward"
-material = "desk"
-[[geometry]]
-kind = "box"
-min = [3.0, 0.0, 0.0]
-max = [3.3, 2.0, 2.0]
-normals = "outward"
-material = "desk"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.0]
-network = "a"
-[[luminaires]]
-name = "B1"
-photometry = "down"
-position = [3.6, 1.0, 2.4]
-network = "b"
-[[luminaires]]
-name = "B2"
-photometry = "down"
-position = [2, 2.5, 2.4]
-network = "b"
-aim = { tilt = 30, pan = 90 }
-[[grids]]
-name = "wp"
-kind = "plane"
-origin = [0.2, 0.2, 0.8]
-u = [3.6, 0, 0]
-v = [0, 2.6, 0]
-nu = 6
-nv = 5
-[solver]
-patch_size = 0.3
-spectral_samples = 3
-tolerance = 1e-6
-gather_rays = 1024
-"""
+ROOM = study(
+    material("wall", 0.7), material("floor", 0.3), material("desk", 0.5),
+    photometry("iso", "isotropic", 3000), photometry("down", "lambertian", 2000),
+    network("a"), network("b"),
+    box([0, 0, 0], [4, 3, 2.5]), box([1.0, 0.8, 0.0], [2.6, 1.8, 0.75], "desk", "outward"),
+    box([3.0, 0.0, 0.0], [3.3, 2.0, 2.0], "desk", "outward"),
+    lamp("A1", [1, 1.5, 2.0], "a"), lamp("B1", [3.6, 1.0, 2.4], "b", "down"),
+    lamp("B2", [2, 2.5, 2.4], "b", "down", aim={"tilt": 30, "pan": 90}),
+    plane_grid("wp", [0.2, 0.2, 0.8], [3.6, 0, 0], [0, 2.6, 0], nu=6, nv=5),
+    table("solver", patch_size=0.3, spectral_samples=3, tolerance=1e-6, gather_rays=1024))
 ELEMENTS = 300  # operator_patches: about a quarter of the fine patches
 
 

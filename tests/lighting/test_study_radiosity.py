@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from helpers import box, lamp, material, network, photometry, plane_grid, rectangle, study, table
 
 import lumijax
 from lumijax import LumijaxWarning, load_study
@@ -15,62 +16,16 @@ from lumijax.lighting import solve_lighting
 # The integrating sphere through this same pipeline is in tests/validation.
 
 
-ROOM = """
-[materials.wall]
-reflectance = 0.7
-[materials.floor]
-reflectance = 0.3
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 3000
-[photometry.down]
-kind = "lambertian"
-flux_lm = 2000
-[networks.a]
-dimmer = 0.3
-[networks.b]
-dimmer = 0.9
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 3, 2.5]
-normals = "inward"
-material = "wall"
-[[geometry]]
-kind = "rectangle"
-origin = [0.5, 0.5, 0.01]
-u = [3, 0, 0]
-v = [0, 2, 0]
-material = "floor"
-[[luminaires]]
-name = "A1"
-photometry = "iso"
-position = [1, 1.5, 2.0]
-network = "a"
-[[luminaires]]
-name = "B1"
-photometry = "down"
-position = [3, 1.0, 2.4]
-network = "b"
-[[luminaires]]
-name = "B2"
-photometry = "down"
-position = [3, 2.0, 2.4]
-network = "b"
-aim = { tilt = 30, pan = 90 }
-[[grids]]
-name = "wp"
-kind = "plane"
-origin = [0.2, 0.2, 0.8]
-u = [3.6, 0, 0]
-v = [0, 2.6, 0]
-nu = 6
-nv = 5
-[solver]
-patch_size = 0.4
-tolerance = 1e-11
-spectral_samples = 4  # colour is tested elsewhere; four samples keep the spectral path cheap
-"""
+ROOM = study(
+    material("wall", 0.7), material("floor", 0.3),
+    photometry("iso", "isotropic", 3000), photometry("down", "lambertian", 2000),
+    network("a", 0.3), network("b", 0.9),
+    box([0, 0, 0], [4, 3, 2.5]), rectangle([0.5, 0.5, 0.01], [3, 0, 0], [0, 2, 0], "floor"),
+    lamp("A1", [1, 1.5, 2.0], "a"), lamp("B1", [3, 1.0, 2.4], "b", "down"),
+    lamp("B2", [3, 2.0, 2.4], "b", "down", aim={"tilt": 30, "pan": 90}),
+    plane_grid("wp", [0.2, 0.2, 0.8], [3.6, 0, 0], [0, 2.6, 0], nu=6, nv=5),
+    # colour is tested elsewhere; four samples keep the spectral path cheap
+    table("solver", patch_size=0.4, tolerance=1e-11, spectral_samples=4))
 
 
 def test_any_dimmer_vector_equals_a_full_resolve(write_study):
