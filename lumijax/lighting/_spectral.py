@@ -10,6 +10,12 @@ the colour the materials give it.
 
 ``samples = 0`` is the photometric solve: one "wavelength" with the luminous (V(λ)-weighted)
 reflectance, Y only.
+
+The system is linear and the source spectrum enters B₀ only as a factor per wavelength:
+``B(λ) = s(λ) · solve(ρ(λ) E)``. :func:`solve_spectral` solves ``ρ(λ) E`` and multiplies by
+``s`` after, so the solve sees one column per (source group, distinct reflectance column) — a
+grey material set needs one wavelength whatever the luminaires' spectra, and sources sharing
+one direct light share its column (docs/radiosity.md, "Distinct columns").
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ from functools import cached_property
 import numpy as np
 from jaxtyping import Float
 
-__all__ = ["SpectralSetup", "DEFAULT_EMISSION", "source_spectrum"]
+__all__ = ["SpectralSetup", "DEFAULT_EMISSION", "source_spectrum", "solve_spectral"]
 
 DEFAULT_EMISSION = "E"
 """Spectrum of a luminaire that names none: CIE illuminant E (equal energy), a neutral white."""
@@ -91,3 +97,55 @@ class SpectralSetup:
         wl = np.asarray(sampling.wavelengths_nm)
         table = np.array([np.asarray(m.reflectance.at(wl), np.float64) for m in scene.materials])
         return cls(sampling, table[patch_material])
+
+
+def solve_spectral(transport, rho, patch_direct, s, dtype, **solve):
+    """Spectral radiosity of source groups: ``(B, solution)``.
+
+    Parameters
+    ----------
+    transport
+        The form factors (``radiosity.TransportOperator``).
+    rho
+        ``(patches, W)`` reflectance at the sample wavelengths (dimensionless).
+    patch_direct
+        ``(src, patches)`` direct illuminance on the patches (lx), one row per source group.
+    s
+        ``(src, W)`` each group's sampled spectrum, scaled to Y = 1 (:meth:`SpectralSetup.weights`).
+    dtype
+        The solve's precision.
+    solve
+        Passed on to :func:`lumijax.radiosity.solve_radiosity` (``solver``, ``rtol``,
+        ``max_steps``).
+
+    Returns
+    -------
+    ``B``, ``(patches, src, W)`` float64 radiosity (lm/m² per unit of Y), equal to the solve of
+    ``ρ E s`` column by column (linearity), and the :class:`RadiositySolution` of the distinct
+    columns (its ``escaped`` per (src, W); 0 where ``s`` is 0, as a column without light has).
+    """
+    import jax.numpy as jnp
+
+    from ..radiosity import solve_radiosity
+
+    s = np.asarray(s, np.float64)
+    rho_j = jnp.asarray(rho, dtype)  # (P, W)
+    e = jnp.asarray(np.asarray(patch_direct, np.float64).T[:, :, None], dtype)  # (P, src, 1)
+    b0 = rho_j[:, None, :] * e
+    res = solve_radiosity(transport, rho_j[:, None, :], b0, **solve)
+    b = np.asarray(res.value, np.float64) * s[None]
+    lit = jnp.asarray(s != 0)
+    res = _masked(res, lit)
+    return b, res
+
+
+def _masked(res, lit):
+    """The solution's per-column flux fractions set to 0 where a column has no light."""
+    import jax.numpy as jnp
+
+    from ..radiosity import RadiositySolution
+
+    escaped = jnp.where(lit, res.escaped, 0.0).astype(res.escaped.dtype)
+    created = jnp.where(lit, res.stats["created"], 0.0).astype(res.escaped.dtype)
+    return RadiositySolution(res.value, res.iterations, res.residual, res.result, escaped,
+                             dict(res.stats, created=created))

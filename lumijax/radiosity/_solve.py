@@ -21,9 +21,18 @@ Two things happen around every solve:
 * **Scaling.** Columns are scaled to unit maximum before the solve (the scale is a constant for
   autodiff, and the system is linear, so the answer and its derivatives are unchanged) so that
   one tolerance means the same thing for a bright and a dim network.
+
+**Distinct columns.** Two columns with the same reflectance and the same B₀ (in the solve's
+precision) are the same problem: only the distinct ones are solved and the answer is broadcast
+back to every column (``stats["columns_solved"]`` says how many were). A grey scene's sample
+wavelengths are such copies once the spectral factor is taken out of B₀
+(``lighting._spectral.solve_spectral``). Only concrete inputs are compared; under ``jit`` or
+``grad`` every column is solved.
 """
 
 from __future__ import annotations
+
+import hashlib
 
 import equinox as eqx
 import jax
@@ -48,6 +57,7 @@ __all__ = [
     "check_reflectance",
     "escaped_fraction",
     "row_correction",
+    "distinct_columns",
     "CLOSED_TOL",
 ]
 
@@ -81,7 +91,8 @@ class RadiositySolution(eqx.Module):
     stats
         Method-specific counts, plus ``created``: per column, the fraction of the flux that
         rows summing above 1 would have created without the correction
-        (``Σ A B max(s − 1, 0) / Σ A B``), ``row_max`` (largest row sum) and ``closed``.
+        (``Σ A B max(s − 1, 0) / Σ A B``), ``row_max`` (largest row sum), ``closed`` and
+        ``columns_solved`` (distinct columns solved, an int; module docstring).
     """
 
     value: Float[Array, "patches ..."]
@@ -208,13 +219,64 @@ def solve_radiosity(
         )
     if rtol is None:
         rtol = 1e-9 if b0.dtype == jnp.float64 else 1e-4
-    b, iterations, residual, result, escaped, stats = _solve(
-        transport, jnp.asarray(rho), b0, solver, float(rtol), int(max_steps), bool(correct_rows)
-    )
+    rho = jnp.asarray(rho)
+    columns = distinct_columns(rho, b0)
+    if columns is None:  # traced: every column
+        b, iterations, residual, result, escaped, stats = _solve(
+            transport, rho, b0, solver, float(rtol), int(max_steps), bool(correct_rows))
+        stats = dict(stats, columns_solved=int(np.prod(b0.shape[1:], dtype=int)))
+    else:
+        first, inverse = columns
+        n = b0.shape[0]
+        rho_u = _flat_columns(rho, b0)[:, first]
+        b_u, iterations, residual, result, escaped_u, stats = _solve(
+            transport, rho_u, b0.reshape(n, -1)[:, first], solver, float(rtol),
+            int(max_steps), bool(correct_rows))
+        b = b_u[:, inverse].reshape(b0.shape)
+        escaped = escaped_u[inverse].reshape(b0.shape[1:])
+        stats = dict(stats, created=stats["created"][inverse].reshape(b0.shape[1:]),
+                     columns_solved=len(first))
     sol = RadiositySolution(b, iterations, residual, result, escaped, stats)
     if throw:
         sol = _raise_if_failed(sol, solver, rtol, max_steps)
     return sol
+
+
+def _flat_columns(rho, b0):
+    """``rho`` broadcast to ``b0``'s shape, as ``(patches, columns)`` (rho as given: ``(P,)``
+    is one value per patch for every column)."""
+    n = b0.shape[0]
+    r = rho.reshape((n,) + (1,) * (b0.ndim - 1)) if rho.ndim == 1 else rho
+    return jnp.broadcast_to(r.astype(b0.dtype), b0.shape).reshape(n, -1)
+
+
+def distinct_columns(rho, b0) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(first, inverse)``: the index of the first column of each distinct (ρ, B₀) column pair
+    of ``b0`` flattened to ``(patches, columns)``, and for every column the distinct one it
+    equals (bit for bit, in B₀'s precision), so ``x[:, first][:, inverse]`` rebuilds all of
+    ``x``. None when the values are traced (nothing to compare)."""
+    r, b = _concrete(rho), _concrete(b0)
+    if r is None or b is None:
+        return None
+    n = b.shape[0]
+    r = np.asarray(_flat_columns(jnp.asarray(r), jnp.asarray(b)))
+    b = np.asarray(b).reshape(n, -1)
+    # hash each column (one pass, no (2P × C) sorted copy), then confirm equal bytes
+    seen: dict[bytes, list[int]] = {}
+    first: list[int] = []
+    inverse = np.empty(b.shape[1], np.int64)
+    for j in range(b.shape[1]):
+        rj, bj = np.ascontiguousarray(r[:, j]), np.ascontiguousarray(b[:, j])
+        key = hashlib.blake2b(rj.tobytes() + bj.tobytes(), digest_size=16).digest()
+        for u in seen.get(key, ()):
+            if np.array_equal(r[:, first[u]], rj) and np.array_equal(b[:, first[u]], bj):
+                inverse[j] = u
+                break
+        else:
+            seen.setdefault(key, []).append(len(first))
+            inverse[j] = len(first)
+            first.append(j)
+    return np.asarray(first, np.int64), inverse
 
 
 @eqx.filter_jit
