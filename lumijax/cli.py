@@ -2,7 +2,7 @@
 
     lumijax run CONFIG [--out DIR] [--no-images] [--no-shadows] [--no-optimise] [--no-report]
     lumijax check CONFIG [--json]
-    lumijax report CONFIG [--out DIR] [--no-pictures]
+    lumijax report CONFIG [--out DIR] [--no-pictures] [--pdf]
     lumijax view CONFIG [--web] [--host HOST] [--port PORT] [--camera NAME]
     lumijax demo [--out DIR] [--no-report]
 
@@ -119,14 +119,19 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
     return 0
 
 
-def _report(config: Path, out: Path, *, pictures: bool, console) -> int:
+def _report(config: Path, out: Path, *, pictures: bool, console, pdf: bool = False) -> int:
     """Compute the study as configured (the operator cache makes this quick) and write
-    ``report.html``; ``lumijax run`` writes the same report after results and optimisation."""
+    ``report.html`` (and, with ``pdf``, ``report.pdf``); ``lumijax run`` writes the same report
+    after results and optimisation."""
     from ._atomic import FolderLock, is_temporary, remove_orphans
     from ._study import compute, load_study
     from .report import write_report
     from .report._write import KEPT_NAMES, SET_NAMES
 
+    if pdf:
+        from .report._pdf import require_pdf
+
+        require_pdf()  # fail before the compute, naming what to install
     t0 = time.perf_counter()
     # report.html alone is replaced (one atomic rename), under the folder's lock; the rest of
     # a run's set, if any, stays as it was (docs/results.md, "Atomic writing")
@@ -143,8 +148,10 @@ def _report(config: Path, out: Path, *, pictures: bool, console) -> int:
         progress, update = _progress_bar(console, "lighting")
         with progress:
             results = compute(study, progress=update)
-        path = write_report(study, results, out / "report.html", pictures=pictures)
-    console.print(f"wrote {path} in {time.perf_counter() - t0:.1f} s")
+        path = write_report(study, results, out / "report.html", pictures=pictures,
+                            pdf=out / "report.pdf" if pdf else None)
+    console.print(f"wrote {path}{' and report.pdf' if pdf else ''} in "
+                  f"{time.perf_counter() - t0:.1f} s")
     return 0
 
 
@@ -252,6 +259,8 @@ def _parser() -> argparse.ArgumentParser:
                         "CONFIG's name + '-out' beside it)")
     report.add_argument("--no-pictures", action="store_true",
                         help="tables only: no views, maps or plots (fast)")
+    report.add_argument("--pdf", action="store_true",
+                        help="also write report.pdf (needs the lumijax[pdf] extra: WeasyPrint)")
     view = sub.add_parser("view", help="the live dimmer viewer (one slider per network)")
     view.add_argument("config", type=Path)
     view.add_argument("--web", action="store_true",
@@ -297,7 +306,8 @@ def main(argv: list[str] | None = None) -> int:
         out = args.out if args.out is not None else args.config.with_name(
             args.config.stem + "-out")
         if args.command == "report":
-            return _report(args.config, out, pictures=not args.no_pictures, console=console)
+            return _report(args.config, out, pictures=not args.no_pictures, console=console,
+                           pdf=args.pdf)
         return _run(args.config, out, images=not args.no_images, shadows=not args.no_shadows,
                     optimise=not args.no_optimise, report=not args.no_report, console=console)
     except LumijaxError as e:

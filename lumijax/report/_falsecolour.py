@@ -174,22 +174,57 @@ def plane_frame(points: np.ndarray, normal=None) -> tuple[np.ndarray, np.ndarray
 
 
 def make_view(points, normal=None, window_size: Sequence[int] = WINDOW_SIZE) -> View:
-    """The :class:`View` that :func:`falsecolour_map` uses for these points."""
+    """The :class:`View` that :func:`falsecolour_map` uses for these points: the grid and its
+    metre rulers (which run from a round value at or before the first point to one at or past
+    the last, so that they cover the data) fit the plot box."""
     p = np.asarray(points, dtype=np.float64)
     n, right, up = plane_frame(p, normal)
     u, v = p @ right, p @ up
+    u_lo, u_hi = _covered(u, right)
+    v_lo, v_hi = _covered(v, up)
     w, h = (int(window_size[0]), int(window_size[1]))
     x0, y0, x1, y1 = _PLOT_BOX
-    span_u = max(np.ptp(u), 1e-9)
-    span_v = max(np.ptp(v), 1e-9)
+    span_u = max(u_hi - u_lo, 1e-9)
+    span_v = max(v_hi - v_lo, 1e-9)
     px_per_m = min((x1 - x0) * w / span_u, (y1 - y0) * h / span_v)
-    # Put the grid's centre at the centre of the plot box, not of the image.
+    # Put the drawing's centre at the centre of the plot box, not of the image.
     box_centre_px = np.array([(x0 + x1) / 2.0 * w, (y0 + y1) / 2.0 * h])
     offset_m = (box_centre_px - np.array([w / 2.0, h / 2.0])) / px_per_m
-    mid = (u.min() + u.max()) / 2.0 * right + (v.min() + v.max()) / 2.0 * up
+    mid = (u_lo + u_hi) / 2.0 * right + (v_lo + v_hi) / 2.0 * up
     depth = float(np.mean(p @ n)) * n
     centre = mid + depth - offset_m[0] * right - offset_m[1] * up
     return View(centre, right, up, n, float(px_per_m), (w, h))
+
+
+def _ruler_ticks(t: np.ndarray, vec: np.ndarray) -> tuple[str | None, float, float, np.ndarray]:
+    """``(world axis name or None, sign, offset, ticks)`` of the ruler along ``vec`` for
+    points at coordinates ``t`` along it: the labelled value of coordinate ``t`` is
+    ``sign * (t - offset)`` (a world coordinate along a world axis, else the distance from the
+    first point), and the round ``ticks`` run from at or before the smallest value to at or past
+    the largest."""
+    from matplotlib.ticker import MaxNLocator
+
+    axis = _axis_name(vec)
+    name, sign = axis if axis is not None else (None, 1.0)
+    offset = 0.0 if axis is not None else float(t.min())
+    q = sign * (t - offset)
+    lo, hi = float(q.min()), float(q.max())
+    span = max(hi - lo, 1e-9)
+    ticks = MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+    eps = 1e-9 * span
+    first = ticks[ticks <= lo + eps].max() if np.any(ticks <= lo + eps) else lo
+    last = ticks[ticks >= hi - eps].min() if np.any(ticks >= hi - eps) else hi
+    inner = ticks[(ticks >= first - eps) & (ticks <= last + eps)]
+    if inner.size < 2:
+        inner = np.array([first, last])
+    return name, sign, offset, inner
+
+
+def _covered(t: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
+    """The coordinates along ``vec`` that the points and their ruler span (m)."""
+    _, sign, offset, ticks = _ruler_ticks(t, vec)
+    ends = ticks[[0, -1]] * sign + offset
+    return min(float(t.min()), float(ends.min())), max(float(t.max()), float(ends.max()))
 
 
 # -------------------------------------------------------------------------------------- mesh
@@ -474,8 +509,6 @@ def _rulers(pl, view: View, p: np.ndarray, font: int) -> None:
     Along a world axis the labels are that world coordinate; otherwise the distance along the
     grid from its first edge.
     """
-    from matplotlib.ticker import MaxNLocator
-
     w, h = view.window_size
     u, v = p @ view.right, p @ view.up
     depth = float(np.mean(p @ view.normal)) * view.normal
@@ -485,19 +518,8 @@ def _rulers(pl, view: View, p: np.ndarray, font: int) -> None:
         return a * view.right + b * view.up + depth
 
     for which, vec, t in (("u", view.right, u), ("v", view.up, v)):
-        axis = _axis_name(vec)
-        if axis is not None:
-            name, sign = axis
-        else:
-            name, sign = ("u" if which == "u" else "v"), 1.0
-        offset = 0.0 if axis is not None else float(t.min())
-        q = sign * (t - offset)  # labelled coordinate of each point
-        lo, hi = float(q.min()), float(q.max())
-        span = max(hi - lo, 1e-9)
-        ticks = MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
-        inner = ticks[(ticks >= lo - 1e-9 * span) & (ticks <= hi + 1e-9 * span)]
-        if inner.size < 2:
-            inner = np.array([lo, hi])
+        name, sign, offset, inner = _ruler_ticks(t, vec)
+        axis = None if name is None else (name, sign)
         # screen coordinate of a labelled value, and the ruler's two ends (labels fall outside
         # the grid: below a left-to-right ruler, left of a top-to-bottom one)
         t0, t1 = (inner[0] * sign + offset), (inner[-1] * sign + offset)
@@ -533,10 +555,10 @@ def _rulers(pl, view: View, p: np.ndarray, font: int) -> None:
         prop.SetShadow(False)
         prop.SetColor(0.0, 0.0, 0.0)
         label = f"{name} (m)" if axis is not None else "distance along the grid (m)"
-        if which == "u":  # right of the grid, on the level of the ruler's labels
-            px = view.pixel(world(u.max(), v.min() - gap))
+        if which == "u":  # right of the ruler, on the level of its labels
+            px = view.pixel(world(max(u.max(), ta, tb), v.min() - gap))
             pos = (int(px[0] + 0.8 * font), int(h - px[1] - 1.9 * font))
-        else:  # above the grid, over the ruler
-            px = view.pixel(world(u.min() - gap, v.max()))
+        else:  # above the ruler
+            px = view.pixel(world(u.min() - gap, max(v.max(), ta, tb)))
             pos = (int(px[0] - 1.5 * font), int(h - px[1] + 0.8 * font))
         pl.add_text(label, position=pos, font_size=font, color="black", font="arial")

@@ -3,7 +3,10 @@
 Everything is inline: CSS in the page, pictures as base64 PNG data URIs. The page is a jinja2
 template (``templates/report.html.j2``); this module gathers what it shows: the study's summary,
 per-grid statistics against their targets, per-network dimmer, flux and power, the views of the
-cameras, the grids' iso-lux maps, the photometry and, after an optimisation, before and after.
+cameras, each grid's picture (an iso-lux map, a profile along a path, or a plan of its points)
+and, for grids that are not mapped, their values, each network alone, the luminaire schedule, the
+photometry and, after an optimisation, before and after. Sections of other layers (glare,
+compliance) come from :func:`section_builders` as :class:`ReportSection` values.
 """
 
 from __future__ import annotations
@@ -11,19 +14,23 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import io
-import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._atomic import atomic_path
+from .._study import Study
+from ..config._schema import _GridBase
 from ..design import Design
-from ..errors import LumijaxError, OutputError
-from ..results import CRITERIA_SLACK
+from ..errors import OutputError
+from ..results import CRITERIA_SLACK, GridResult, Results
+from ._sections import ReportSection
 
-__all__ = ["write_report", "report_context", "render_report", "grid_criteria"]
+__all__ = ["write_report", "report_context", "render_report", "grid_criteria",
+           "section_builders"]
 
 #: Pixel size of the pictures in the report (width, height).
 VIEW_SIZE = (1280, 800)
@@ -52,8 +59,12 @@ def grid_criteria(grid_cfg, stats: dict[str, float]) -> list[dict[str, Any]]:
     out = []
     checks = (("target_lux", "Eavg", "avg", ">=", "lx"), ("min_lux", "Emin", "min", ">=", "lx"),
               ("max_lux", "Emax", "max", "<=", "lx"), ("uniformity_min", "U0", "u0", ">=", ""))
+    if grid_cfg is None:
+        return []
+    given = {"target_lux": grid_cfg.target_lux, "min_lux": grid_cfg.min_lux,
+             "max_lux": grid_cfg.max_lux, "uniformity_min": grid_cfg.uniformity_min}
     for key, label, stat, op, unit in checks:
-        wanted = getattr(grid_cfg, key, None) if grid_cfg is not None else None
+        wanted = given[key]
         if wanted is None:
             continue
         got = stats[stat]
@@ -67,15 +78,20 @@ def grid_criteria(grid_cfg, stats: dict[str, float]) -> list[dict[str, Any]]:
     return out
 
 
-def _grid_configs(study) -> dict[str, Any]:
-    return {g.name: g for g in getattr(study.config, "grids", [])}
+def section_builders() -> list[Callable[[Study, Results, bool], list[ReportSection]]]:
+    """The builders of the sections other layers add, in order: each is called as
+    ``builder(study, results, pictures)`` and returns its :class:`ReportSection` values (none
+    when the study has nothing for it). A layer's report module adds its builder here."""
+    return []
 
 
-def _optimisation_dict(results) -> dict[str, Any] | None:
-    opt = getattr(results, "optimisation", None)
-    if opt is None:
-        return None
-    return opt if isinstance(opt, dict) else opt.to_dict()
+def _grid_configs(study: Study) -> dict[str, _GridBase]:
+    return {g.name: g for g in study.config.grids}
+
+
+def _optimisation_dict(results: Results) -> dict[str, Any] | None:
+    opt = results.optimisation
+    return None if opt is None else opt.to_dict()
 
 
 def _convergence_png(history) -> bytes | None:
@@ -156,8 +172,7 @@ def _pictures(study, results, cameras, timings) -> tuple[list, list]:
     if results.design.same_study(Design.of(scene)):  # the fittings drawn as designed
         scene = scene.with_design(results.design)
     timings["surfaces"] = time.perf_counter() - t0
-    auto = len(cams) == 1 and cams[0].name == "overview" and not getattr(
-        study.config, "cameras", None)
+    auto = len(cams) == 1 and cams[0].name == "overview" and not study.config.cameras
     for cam in cams:
         t1 = time.perf_counter()
         kinds = ["realistic", "falsecolour"] if auto else [cam.kind]
@@ -184,34 +199,76 @@ def _pictures(study, results, cameras, timings) -> tuple[list, list]:
     return views, notes
 
 
-def _grid_maps(results, timings) -> dict[str, str]:
-    from ._falsecolour import falsecolour_map
+def _grid_pictures(study: Study, results: Results, timings) -> dict[str, dict[str, Any]]:
+    """Each grid's picture (``_gridplots``): ``{name: {"kind", "src", "caption"}}``."""
+    from ._gridplots import safe_grid_picture
 
+    gcfg = _grid_configs(study)
+    aims = [(lum.position, lum.axis) for lum in study.scene.luminaires]
     out = {}
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="lumijax-report-") as tmp:
-        for i, (name, g) in enumerate(results.grids.items()):
-            pts = np.asarray(g.points)
-            if len(pts) < 3:
-                continue
-            centred = pts - pts.mean(axis=0)
-            sv = np.linalg.svd(centred, compute_uv=False)
-            if sv[1] <= 1e-9 * max(sv[0], 1e-300):
-                continue
-            normal = np.asarray(g.normals).mean(axis=0)
-            path = Path(tmp) / f"{i}.png"
-            try:
-                falsecolour_map(pts, g.illuminance_lux, path, shape=g.shape,
-                                normal=normal if np.linalg.norm(normal) > 0 else None,
-                                title=f"{results.study} — {name}", window_size=MAP_SIZE)
-            except LumijaxError:
-                continue  # a grid that cannot be drawn still has its numbers in the table
-            out[name] = _data_uri(path.read_bytes())
-    timings["grid_maps"] = time.perf_counter() - t0
+    for name, g in results.grids.items():
+        pic = safe_grid_picture(g, gcfg.get(name), title=f"{results.study} — {name}",
+                                luminaires=aims, size=MAP_SIZE)
+        if pic is not None:
+            out[name] = {"kind": pic.kind, "src": _data_uri(pic.png), "caption": pic.caption}
+    timings["grid_pictures"] = time.perf_counter() - t0
     return out
 
 
-def report_context(study, results, *, cameras=None, pictures: bool = True,
+#: Grids that are not mapped list their points' values, up to this many rows.
+MAX_VALUE_ROWS = 120
+
+
+def _point_values(g: GridResult, cfg: _GridBase | None) -> dict[str, Any]:
+    """The values of a grid's points, each against the grid's point limits (min/max lux)."""
+    lux = np.asarray(g.illuminance_lux, np.float64)
+    lo = None if cfg is None else cfg.min_lux
+    hi = None if cfg is None else cfg.max_lux
+    rows = []
+    for i in range(min(len(lux), MAX_VALUE_ROWS)):
+        ok = (lo is None or lux[i] >= lo * (1 - CRITERIA_SLACK)) and (
+            hi is None or lux[i] <= hi * (1 + CRITERIA_SLACK))
+        rows.append({"i": i + 1, "point": ", ".join(f"{x:.3g}" for x in g.points[i]),
+                     "normal": ", ".join(f"{x:.2g}" for x in g.normals[i]),
+                     "lux": _fmt(lux[i]), "ok": bool(ok), "judged": lo is not None
+                     or hi is not None})
+    return {"rows": rows, "more": max(0, len(lux) - MAX_VALUE_ROWS)}
+
+
+def _schedule_context(study: Study) -> dict[str, Any]:
+    from ._schedule import luminaire_schedule
+
+    s = luminaire_schedule(study)
+    rows = [{"name": r.name, "count": r.count, "manufacturer": r.manufacturer or "—",
+             "catalogue": r.catalogue or "—", "description": r.description, "lamp": r.lamp or "—",
+             "flux": _fmt(r.flux_lm), "watts": _fmt(r.watts),
+             "mf": ", ".join(f"{m:.2f}" for m in r.maintenance_factors),
+             "networks": ", ".join(r.networks), "total_flux": _fmt(r.total_flux_lm),
+             "maintained": _fmt(r.maintained_flux_lm), "total_watts": _fmt(r.total_watts)}
+            for r in s.rows]
+    return {"rows": rows, "count": s.count, "total_flux": _fmt(s.total_flux_lm),
+            "maintained": _fmt(s.maintained_flux_lm), "total_watts": _fmt(s.total_watts),
+            "complete_power": s.complete_power}
+
+
+def _network_pages(study: Study, results: Results) -> list[dict[str, Any]]:
+    from ._networks import network_pages
+
+    return [{"name": p.name, "description": p.description,
+             "dimmer": f"{100 * p.dimmer:.0f} %", "count": len(p.luminaires),
+             "luminaires": ", ".join(p.luminaires[:12])
+             + (f" and {len(p.luminaires) - 12} more" if len(p.luminaires) > 12 else ""),
+             "photometries": ", ".join(p.photometries), "flux_full": _fmt(p.flux_full_lm),
+             "flux": _fmt(p.flux_full_lm * p.dimmer),
+             "lit": [{"grid": x.grid, "avg_full": _fmt(x.avg_full), "max_full": _fmt(x.max_full),
+                      "avg": _fmt(x.avg), "max": _fmt(x.max),
+                      "share": f"{100 * x.share:.0f} %"} for x in p.lit],
+             "unlit": ", ".join(p.unlit)}
+            for p in network_pages(study, results)]
+
+
+def report_context(study: Study, results: Results, *, cameras=None, pictures: bool = True,
                    config_path: str | Path | None = None) -> dict[str, Any]:
     """Everything ``report.html`` shows, as plain values (numbers already formatted)."""
     from .._version import __version__
@@ -219,7 +276,7 @@ def report_context(study, results, *, cameras=None, pictures: bool = True,
 
     timings: dict[str, float] = {}
     gcfg = _grid_configs(study)
-    ncfg = getattr(study.config, "networks", {}) or {}
+    ncfg = study.config.networks
     grids = []
     n_met = n_crit = 0
     for name, g in results.grids.items():
@@ -232,21 +289,21 @@ def report_context(study, results, *, cameras=None, pictures: bool = True,
             "shape": "×".join(str(x) for x in g.shape) if g.shape else "points",
             "avg": _fmt(s["avg"]), "min": _fmt(s["min"]), "max": _fmt(s["max"]),
             "u0": f"{s['u0']:.2f}", "ud": f"{s['ud']:.2f}", "criteria": crit,
-            "raw": s,
+            "raw": s, "point_values": None,
         })
     networks, total_flux, total_power, any_power = [], 0.0, 0.0, False
     design_dimmers = results.design.dimmer_of()
     for name, n in results.networks.items():
         dimmer = design_dimmers[name]
         cfg = ncfg.get(name)
-        power_w = getattr(cfg, "power_w", None) if cfg is not None else None
+        power_w = None if cfg is None else cfg.power_w
         any_power |= power_w is not None
         flux = float(n["flux_lm"])
         total_flux += flux * dimmer
         if power_w is not None:
             total_power += power_w * dimmer
         networks.append({
-            "name": name, "description": getattr(cfg, "description", "") if cfg else "",
+            "name": name, "description": "" if cfg is None else cfg.description,
             "count": len(n["luminaires"]), "dimmer": f"{100 * dimmer:.0f} %",
             "dimmer_value": dimmer, "flux_full": _fmt(flux), "flux": _fmt(flux * dimmer),
             "power_full": None if power_w is None else _fmt(power_w),
@@ -266,10 +323,17 @@ def report_context(study, results, *, cameras=None, pictures: bool = True,
         })
     timings["photometry"] = time.perf_counter() - t0
     views, notes = _pictures(study, results, cameras, timings) if pictures else ([], [])
-    maps = _grid_maps(results, timings) if pictures else {}
+    drawn = _grid_pictures(study, results, timings) if pictures else {}
+    from ._gridplots import picture_kind
+
     for g in grids:
-        g["map"] = maps.get(g["name"])
+        res = results.grids[g["name"]]
+        g["picture"] = drawn.get(g["name"])
+        g["map"] = None if g["picture"] is None else g["picture"]["src"]
+        if picture_kind(res.points, res.normals, res.shape) != "map":
+            g["point_values"] = _point_values(res, gcfg.get(g["name"]))
     opt = _optimisation_dict(results)
+    extra = [sec for build in section_builders() for sec in build(study, results, pictures)]
     sc = study.scene
     solver = results.solver or {}
     return {
@@ -291,33 +355,56 @@ def report_context(study, results, *, cameras=None, pictures: bool = True,
         "optimisation": None if opt is None else _optimisation_section(opt, study, results),
         "solver": {k: v for k, v in solver.items() if k != "wavelengths_nm"},
         "timings": timings,
+        "schedule": _schedule_context(study),
+        "network_pages": _network_pages(study, results),
+        "first_sections": [x for x in extra if x.first],
+        "sections": [x for x in extra if not x.first],
     }
+
+
+def _css_string(text: str) -> str:
+    """``text`` as a CSS string literal (for the pages' running heads)."""
+    return '"' + str(text).replace("\\", "\\\\").replace('"', '\\"').replace(
+        "\n", " ") + '"'
 
 
 def render_report(context: dict[str, Any]) -> str:
     """The HTML of a report context (the packaged jinja2 template)."""
     import jinja2
+    from markupsafe import Markup
 
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("lumijax.report", "templates"),
         autoescape=jinja2.select_autoescape(["html", "j2"]),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
     )
+    env.filters["css_string"] = lambda t: Markup(_css_string(t).replace("<", "\\3C "))
+    env.filters["trusted"] = Markup  # a ReportSection's html, built by the layer's own code
     return env.get_template("report.html.j2").render(**context)
 
 
-def write_report(study, results, path: str | Path, *, cameras=None, pictures: bool = True
-                 ) -> Path:
+def write_report(study: Study, results: Results, path: str | Path, *, cameras=None,
+                 pictures: bool = True, pdf: str | Path | None = None) -> Path:
     """Write ``report.html`` (self-contained) for computed ``results``; return its path.
 
     ``cameras``: a list of :class:`Camera` (default: the config's ``[cameras]``, or an
     automatic overview). ``pictures=False`` leaves out every image (tables only; fast).
+    ``pdf``: also write the same report as a PDF there (``_pdf.write_pdf``: WeasyPrint, the
+    ``lumijax[pdf]`` extra).
     """
     path = Path(path)
     if path.parent.exists() and not path.parent.is_dir():
         raise OutputError("not a folder", file=path.parent)
+    if pdf is not None:
+        from ._pdf import require_pdf
+
+        require_pdf()  # before the pictures are drawn
     ctx = report_context(study, results, cameras=cameras, pictures=pictures)
     html = render_report(ctx)
     with atomic_path(path, what="report", suffix=".html") as tmp:
         Path(tmp).write_text(html, encoding="utf-8")
+    if pdf is not None:
+        from ._pdf import write_pdf
+
+        write_pdf(html, pdf)
     return path

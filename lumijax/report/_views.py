@@ -263,13 +263,17 @@ def _range(values: np.ndarray, scale: str) -> tuple[float, float]:
 
 def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str = "luminance",
                             scale: str = "log", levels=None, clim=None, cmap=DEFAULT_CMAP,
-                            title: str | None = None) -> tuple[np.ndarray, tuple[float, float]]:
+                            title: str | None = None, frame: bool = True
+                            ) -> tuple[np.ndarray, tuple[float, float]]:
     """A false-colour perspective view of per-vertex ``values`` on a surface.
 
     ``points_faces`` is a :class:`SurfaceLight` (or anything with ``polydata()``); ``values``
     are cd/m² (``quantity="luminance"``) or lx (``"illuminance"``), one per vertex. Returns
     ``(image, (vmin, vmax))``; a vertex's colour is :func:`lux_to_rgb` of its value on that
-    range (log: values below vmin take the lowest colour).
+    range (log: values below vmin take the lowest colour). The scene is the camera's ``size``;
+    with ``frame`` (default) a header band above it holds the title and a note of the scale and
+    iso-lines, and a column to its right the colour bar (:func:`frame_view`): nothing is drawn
+    over the scene. ``frame=False``: the scene alone.
     """
     vals = np.asarray(values, np.float64)
     mesh = points_faces.polydata()
@@ -287,39 +291,18 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
     unit = "cd/m²" if quantity == "luminance" else "lx"
     name = "Luminance" if quantity == "luminance" else "Illuminance"
     mesh.point_data["value"] = np.maximum(vals, vmin) if scale == "log" else vals
-    w, h = cam.size
-    font = max(10, int(round(h / 50)))
+    h = cam.size[1]
     pl = _plotter(cam.size)
     try:
         pl.set_background("white")
         pl.add_mesh(
             mesh, scalars="value", cmap=_cmap(cmap), clim=(vmin, vmax),
             log_scale=scale == "log", n_colors=N_COLOURS, interpolate_before_map=True,
-            lighting=False, culling="back",
-            scalar_bar_args=dict(
-                title=f"{name} ({unit})", vertical=True, position_x=0.88, position_y=0.1,
-                width=0.04, height=0.78, unconstrained_font_size=True,
-                title_font_size=font + 1, label_font_size=font, color="black",
-                font_family="arial", fmt="%.3g"),
-        )
-        bar = pl.scalar_bar
-        # perspective views fill the frame: give the bar and the texts a white backing
-        bar.SetDrawBackground(True)
-        bar.GetBackgroundProperty().SetColor(1.0, 1.0, 1.0)
-        bar.GetBackgroundProperty().SetOpacity(0.85)
+            lighting=False, culling="back", show_scalar_bar=False)
         if levels:
-            from vtkmodules.vtkCommonCore import vtkDoubleArray
-
-            arr = vtkDoubleArray()
-            for level in levels:
-                arr.InsertNextValue(level)
-            bar.SetUseCustomLabels(True)
-            bar.SetCustomLabels(arr)
-            bar.SetLabelFormat("%.3g")
             # lift the lines off the surface towards its front (the side drawn) so that the
-            # surface never hides them
-            # and contour only the faces turned to the camera: lines are never culled, so
-            # those of back faces would show through
+            # surface never hides them, and contour only the faces turned to the camera:
+            # lines are never culled, so those of back faces would show through
             centres = np.asarray(mesh.cell_centers().points)
             to_cam = np.asarray(cam.position, np.float64) - centres
             front = np.einsum("ij,ij->i", np.asarray(mesh.cell_data["Normals"]), to_cam) > 0
@@ -329,25 +312,20 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
                 lines.points = np.asarray(lines.points) + lift * np.asarray(
                     lines.point_data["Normals"])
                 pl.add_mesh(lines, color="black", line_width=max(2, h // 400), lighting=False)
-        texts = []
-        if title:
-            texts.append(pl.add_text(title, position=(int(0.02 * w), int(0.94 * h)),
-                                     font_size=font + 2, color="black", font="arial"))
-        note = f"{name} ({unit}), {'log' if scale == 'log' else 'linear'} scale"
-        if levels:
-            note += "; iso-lines at " + ", ".join(_fmt(x) for x in levels) + f" {unit}"
-        texts.append(pl.add_text(note, position=(int(0.02 * w), int(0.905 * h)),
-                                 font_size=font - 2, color="#444444", font="arial"))
-        pl.add_axes(interactive=False, line_width=3, color="black",
-                    viewport=(0.0, 0.0, 0.12, 0.18))
-        for t in texts:
-            prop = t.GetTextProperty()
-            prop.SetBackgroundColor(1.0, 1.0, 1.0)
-            prop.SetBackgroundOpacity(0.85)
         _place(pl, cam)
-        return _shot(pl), (vmin, vmax)
+        scene = _shot(pl)
     finally:
         pl.close()
+    if not frame:
+        return scene, (vmin, vmax)
+    from ._frame import frame_view
+
+    note = f"{name} ({unit}), {'log' if scale == 'log' else 'linear'} scale"
+    if levels:
+        note += "; iso-lines at " + ", ".join(_fmt(x) for x in levels) + f" {unit}"
+    img, _ = frame_view(scene, title=title, subtitle=note, label=f"{name} ({unit})",
+                        clim=(vmin, vmax), scale=scale, cmap=_cmap(cmap), levels=levels)
+    return img, (vmin, vmax)
 
 
 def png_bytes(image: np.ndarray) -> bytes:

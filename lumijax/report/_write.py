@@ -40,7 +40,7 @@ __all__ = ["ResultSet", "write_results"]
 
 #: What a run writes into its folder; a folder holding anything else is not replaced.
 SET_NAMES = frozenset({"results.json", "optimised.toml", "grids", "images", "patches.vtp",
-                       "report.html"})
+                       "report.html", "report.pdf"})
 #: Carried from the old folder into the new one (the demo's operator cache lives there).
 KEPT_NAMES = (".lumijax-cache",)
 
@@ -174,14 +174,6 @@ def _umask() -> int:
     return mask
 
 
-def _spans_an_area(points: np.ndarray) -> bool:
-    if len(points) < 3:
-        return False
-    centred = points - points.mean(axis=0)
-    sv = np.linalg.svd(centred, compute_uv=False)
-    return bool(sv[1] > 1e-9 * max(sv[0], 1e-300))
-
-
 def _grid_csv(points: np.ndarray, lux: np.ndarray) -> str:
     rows = np.column_stack([points, lux])
     body = "\n".join(",".join(f"{x:.6g}" for x in r[:3]) + f",{r[3]:.6g}" for r in rows)
@@ -229,22 +221,17 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
             _write_text(staging, f"grids/{name}.csv", _grid_csv(g.points, g.illuminance_lux))
             written.append(f"grids/{name}.csv")
         if images and results.grids:
-            from ._falsecolour import falsecolour_map
+            from ._gridplots import grid_picture
 
             (staging / "images").mkdir(exist_ok=True)
             for name, g in results.grids.items():
-                if not _spans_an_area(g.points):
-                    continue  # a map of one point, or of points on a line, shows nothing
-                normal = g.normals.mean(axis=0)
+                # every grid draws something true: a map, a profile along its path, or a plan
                 try:
-                    falsecolour_map(
-                        g.points, g.illuminance_lux, staging / "images" / f"{name}.png",
-                        shape=g.shape, normal=normal if np.linalg.norm(normal) > 0 else None,
-                        title=f"{results.study} — {name}",
-                    )
+                    pic = grid_picture(g, title=f"{results.study} — {name}", size=(1600, 1100))
                 except LumijaxError as e:
-                    raise OutputError(f"cannot draw the map of grid {name!r}: {e.message}",
+                    raise OutputError(f"cannot draw the picture of grid {name!r}: {e.message}",
                                       file=out_dir) from None
+                (staging / "images" / f"{name}.png").write_bytes(pic.png)
                 written.append(f"images/{name}.png")
                 _step(f"wrote images/{name}.png")
         lighting = results.lighting

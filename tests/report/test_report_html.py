@@ -18,7 +18,8 @@ from lumijax.report import grid_criteria, report_context, write_report
 
 def _rows(page: str, section: str) -> dict[str, list[str]]:
     """Table rows of a section: first cell text -> the other cells' text."""
-    body = page.split(f'<section id="{section}">', 1)[1].split("</section>", 1)[0]
+    body = re.split(f'<section id="{section}"[^>]*>', page, maxsplit=1)[1].split(
+        "</section>", 1)[0]
     out = {}
     for row in re.findall(r"<tr>(.*?)</tr>", body, flags=re.S):
         cells = [htmlmod.unescape(re.sub(r"<[^>]+>", " ", c)).split()

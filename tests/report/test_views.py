@@ -98,7 +98,7 @@ def test_falsecolour_pixel_matches_the_value_there():
     value = 20.0 + 18.0 * plate.points[:, 0]  # 20 .. 200 cd/m², linear in x
     cam = _camera()
     img, (lo, hi) = render_falsecolour_view(plate, value, cam, scale="linear", clim=(0, 250),
-                                            levels=[])
+                                            levels=[], frame=False)
     assert (lo, hi) == (0.0, 250.0)
     img = img.astype(float) / 255.0
     for x, y in [(0.7, 1.3), (2.2, 4.1), (5.0, 3.3), (7.9, 0.8), (9.3, 5.2)]:
@@ -114,7 +114,8 @@ def test_falsecolour_log_scale_and_iso_lines():
     plate = Plate()
     value = 10.0 ** (0.2 * plate.points[:, 0])  # 1 .. 100, a decade per 5 m
     cam = _camera()
-    img, _ = render_falsecolour_view(plate, value, cam, scale="log", clim=(1, 100), levels=[10])
+    img, _ = render_falsecolour_view(plate, value, cam, scale="log", clim=(1, 100), levels=[10],
+                                     frame=False)
     img = img.astype(float) / 255.0
     # 10 (the log-middle) has the colour-map's middle colour; the iso-line at x = 5 is black
     row, col = _pixel(cam, [3.0, 2.0, 0.0])
