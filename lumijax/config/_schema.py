@@ -438,7 +438,11 @@ class PointsGrid(_GridBase):
         return self
 
 
-Grid = Annotated[PlaneGrid | PointsGrid, Field(discriminator="kind")]
+# the standards' grid kinds (docs/compliance.md) build on _GridBase, defined above
+from ._compliance import AreaGrid, ComplianceConfig, SensorGrid, SurfaceGrid  # noqa: E402
+
+Grid = Annotated[PlaneGrid | PointsGrid | SensorGrid | AreaGrid | SurfaceGrid,
+                 Field(discriminator="kind")]
 
 
 #: Names of the tone curves of ``report._tonemap.TONE_CURVES`` and of the optimisers of
@@ -539,6 +543,7 @@ class StudyConfig(_Model):
     cameras: dict[Name, CameraConfig] = {}
     solver: SolverConfig = SolverConfig()
     optimise: OptimiseConfig | None = None
+    compliance: ComplianceConfig | None = None
     _source: Path | None = PrivateAttr(None)
 
     @property

@@ -15,3 +15,4 @@ from ._pairs import (
     sub_source_offsets as sub_source_offsets,
     support_cosine as support_cosine,
 )
+from ._response import SENSOR_KINDS as SENSOR_KINDS, SensorResponse as SensorResponse

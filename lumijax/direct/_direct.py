@@ -59,6 +59,7 @@ def direct_illuminance(
     *,
     shadows: bool = True,
     progress: Progress | None = None,
+    response=None,
 ) -> DirectLighting:
     """Direct illuminance (lx) at ``points`` on planes of ``normals``, per network at dimmer 1.
 
@@ -73,6 +74,10 @@ def direct_illuminance(
         unobstructed illuminance, useful to check a design's photometry alone.
     progress
         Called as ``progress(done, total)`` in units of photometries and area sources done.
+    response
+        A :class:`lumijax.direct.SensorResponse`: the points are sensors (cylindrical,
+        semi-cylindrical, hemispherical) of point sources; area sources are then not included
+        (``lumijax.compliance`` adds them).
 
     Notes
     -----
@@ -95,7 +100,7 @@ def direct_illuminance(
     phots = {lum.photometry for lum in scene.luminaires}
     total = len(phots) + len(scene.area_sources)
     seen: set[str] = set()
-    for c in pair_chunks(scene, points, normals, caster=caster, stats=stats):
+    for c in pair_chunks(scene, points, normals, caster=caster, stats=stats, response=response):
         flat = network[c.luminaire] * n_pts + c.receiver
         out.reshape(-1)[:] += np.bincount(flat, weights=c.light, minlength=out.size)
         if progress is not None and c.photometry not in seen:
@@ -105,7 +110,7 @@ def direct_illuminance(
     done = len(phots)
     if progress is not None and done:
         progress(done, total)
-    for area in scene.area_sources:
+    for area in (scene.area_sources if response is None else ()):
         e, rays = _area_illuminance(area, points, normals, caster, result.timing_s,
                                     scene.triangles.vertices if caster is not None else None)
         out[net_index[area.network]] += e

@@ -218,7 +218,7 @@ class Tiles:
         return cls(order, offsets, centre, radius)
 
 
-def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi):
+def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi, response=None):
     """``(source, point)`` pairs that can receive light: the point faces the source, lies in
     the support cone of its beam (``cos_support`` per source) and (sub-sources) in its distance
     band.
@@ -246,8 +246,9 @@ def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi):
         rr = np.sqrt(np.einsum("pk,pk->p", d, d))
         # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
         # 1 µm model and nothing at all at site coordinates
-        ok = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) & (
-            d @ axis[li] >= (cos_support[li] - 1e-9) * rr)
+        faces = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) if response is None else (
+            response.factor(d / np.maximum(rr, np.finfo(np.float64).tiny)[:, None], idx) > 0)
+        ok = faces & (d @ axis[li] >= (cos_support[li] - 1e-9) * rr)
         if centre is not None:
             rc = np.linalg.norm(pts[idx] - centre[li], axis=1)
             ok &= (rc >= d_lo[li]) & (rc < d_hi[li])
@@ -272,20 +273,23 @@ def _light_block(distribution, rotations, luminaire, direction, gain):
     return pair_light(distribution, rotations[luminaire], direction, gain)
 
 
-def _geometry(offsets: np.ndarray, normals: np.ndarray, scale: np.ndarray):
+def _geometry(offsets: np.ndarray, normals: np.ndarray, scale: np.ndarray, response=None,
+              receiver=None):
     """Unit directions and gains ``scale · cos θ_r / d²`` (m⁻²) from offsets receiver − source
     (m), in float64 on the host: the kernel then never sees a coordinate, only a direction, so
     the light does not depend on where the model sits. The guard on d² is float64's smallest
     normal number, not a length (a fixed 1e-12 m² once clamped every pair of a µm model)."""
     r2 = np.maximum(np.einsum("ij,ij->i", offsets, offsets), np.finfo(np.float64).tiny)
     w = offsets / np.sqrt(r2)[:, None]
-    cos_r = np.maximum(-np.einsum("ij,ij->i", w, normals), 0.0)
+    # a sensor (cylindrical, ...) reads its own response where a plane reads the cosine
+    cos_r = np.maximum(-np.einsum("ij,ij->i", w, normals), 0.0) if response is None else (
+        response.factor(w, receiver))
     return w, scale * cos_r / r2
 
 
 def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = None,
                 widen=None, threshold: float = 0.0, caster=None,
-                stats: PairStats | None = None) -> Iterator[PairChunk]:
+                stats: PairStats | None = None, response=None) -> Iterator[PairChunk]:
     """The pairs of the luminaires ``selection`` (indices into ``scene.luminaires``, default
     all) and receivers ``points``/``normals`` (m, unit), in batches of at most about 10⁶.
 
@@ -294,7 +298,9 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     a shadow ray, otherwise only those lit at the start aims. ``threshold`` drops pairs where
     the distribution cannot exceed that fraction of its peak (:func:`support_cosine`).
     ``caster`` is a ray caster (``None``: no shadows). Batches are yielded, not kept: the
-    forward light sums and forgets them, the aim model keeps the few it needs.
+    forward light sums and forgets them, the aim model keeps the few it needs. ``response``
+    (a :class:`lumijax.direct.SensorResponse`) makes the receivers sensors (cylindrical, ...)
+    instead of planes of ``normals``.
     """
     sel = list(range(len(scene.luminaires))) if selection is None else list(selection)
     stats = PairStats(timing_s={}) if stats is None else stats
@@ -321,7 +327,8 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
             t0 = time.perf_counter()
             s = slice(c0, c0 + per_cull)
             i, j = _candidates(tiles, points, normals, batch.position[s], axis[s], cos_src[s],
-                               batch.centre[s] if banded else None, batch.lo[s], batch.hi[s])
+                               batch.centre[s] if banded else None, batch.lo[s], batch.hi[s],
+                               response)
             timing["cull"] += time.perf_counter() - t0
             pending.append((i + c0, j))
             pending_n += len(i)
@@ -334,15 +341,15 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
             for p0 in range(0, len(src), _PAIRS_PER_CALL):
                 yield _chunk(batch, dist, src[p0:p0 + _PAIRS_PER_CALL],
                              rcv[p0:p0 + _PAIRS_PER_CALL], points, normals, rot_j, caster,
-                             bool(np.any(widen > 0)), stats, timing)
+                             bool(np.any(widen > 0)), stats, timing, response)
 
 
 def _chunk(batch, dist, s_idx, r_idx, points, normals, rot_j, caster, all_rays, stats,
-           timing) -> PairChunk:
+           timing, response=None) -> PairChunk:
     """Geometry, start light and shadow rays of one batch of candidate pairs."""
     t0 = time.perf_counter()
     w, gain = _geometry(points[r_idx] - batch.position[s_idx], normals[r_idx],
-                        batch.scale[s_idx])
+                        batch.scale[s_idx], response, r_idx)
     lum = batch.luminaire[s_idx]
     n = len(s_idx)
     pad = _bucket(n) - n

@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-__all__ = ["GatherOperator", "build_gather"]
+__all__ = ["GatherOperator", "build_gather", "build_sensor_gather"]
 
 
 @dataclass(frozen=True)
@@ -156,3 +156,70 @@ def _patch_of_hits(tree, src_tri, hit_points, hit_tri, k: int = 16):
             d = np.linalg.norm(tree.data[lo[i]:hi[i]] - hit_points[i], axis=1)
             out[i] = lo[i] + int(np.argmin(d))
     return out
+
+
+def _sphere_directions(n: int) -> Float[np.ndarray, "n 3"]:
+    """``n`` stratified uniform directions on the unit sphere (Fibonacci lattice)."""
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = k * np.pi * (3.0 - np.sqrt(5.0))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def build_sensor_gather(
+    points: Float[np.ndarray, "points 3"],
+    response,
+    patches,
+    caster,
+    *,
+    rays: int = 1024,
+    seed: int = 0,
+    chunk: int = 2048,
+) -> GatherOperator:
+    """The gather of sensors that are not planes (cylindrical, semi-cylindrical,
+    hemispherical: :class:`lumijax.direct.SensorResponse`), which see the whole sphere.
+
+    ``E = ∫ L(u) R(u) dω`` with ``L = B/π`` is sampled with ``rays`` stratified uniform
+    directions per point (turned at random per point): ``E ≈ (4/N) Σ R(u) B(hit)``, so each
+    link weighs ``4 R(u)/N``. The weights of a point sum to the fraction of ``∫ R dω = π``
+    (divided by π) that meets a patch: 1 in a closed room, as for the planar gather.
+    """
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, np.float64)
+    rng = np.random.default_rng(seed)
+    local = _sphere_directions(rays)
+    tree = cKDTree(patches.centroid)
+    src_tri = np.asarray(patches.source_triangle)
+    tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
+    tri_normals[src_tri] = patches.normal
+    rows, cols, wts = [], [], []
+    for s in range(0, len(points), chunk):
+        p = points[s : s + chunk]
+        frames = _frames(rng.normal(size=(len(p), 3)) + 1e-9, rng)  # a random turn per point
+        dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
+        receiver = np.repeat(np.arange(s, s + len(p)), rays)
+        weight = 4.0 * response.factor(-dirs, receiver) / rays
+        live = weight > 0
+        origins = np.repeat(p, rays, axis=0)[live]
+        dirs, receiver, weight = dirs[live], receiver[live], weight[live]
+        tri, dist = caster.first_hit(origins, dirs)
+        hit = tri >= 0
+        hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
+        hit_points = origins[hit] + dirs[hit] * dist[hit, None]
+        rows.append(receiver[hit])
+        cols.append(_patch_of_hits(tree, src_tri, hit_points, tri[hit]))
+        wts.append(weight[hit])
+    point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+    patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)
+    weight = np.concatenate(wts) if wts else np.zeros(0)
+    key = point_idx.astype(np.int64) * patches.n + patch_idx
+    uniq, inverse = np.unique(key, return_inverse=True)
+    return GatherOperator(
+        n_points=len(points),
+        n_patches=patches.n,
+        point=(uniq // patches.n).astype(np.int32),
+        patch=(uniq % patches.n).astype(np.int32),
+        weight=np.bincount(inverse.ravel(), weights=weight, minlength=len(uniq)),
+    )

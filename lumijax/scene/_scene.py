@@ -232,7 +232,9 @@ def build_scene(cfg: StudyConfig) -> Scene:
                                                                    photometries[lum.photometry]))
         luminaires.append(placed)
 
-    grids = tuple(_grid(g, frame_of(g.group), src, f"grids[{i}]") for i, g in enumerate(cfg.grids))
+    from ._standard_grids import build_grids  # the standards' kinds (docs/compliance.md)
+
+    grids = build_grids(cfg, triangles, frame_of, lambda g, fr, key: _grid(g, fr, src, key), src)
 
     scene = Scene(
         name=cfg.study.name, source=src, triangles=triangles, materials=materials,

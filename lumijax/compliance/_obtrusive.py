@@ -1,0 +1,68 @@
+"""Obtrusive light (CIE 150:2017): the upward light ratio of the installation from each
+luminaire's own photometry at its aim, the luminous intensity of each luminaire toward
+sensitive points, and the average luminance of a facade from a surface grid.
+
+All at dimmer 1 per luminaire or network: the values at other dimmers are JAX functions of
+them (``_verdict``), so they superpose and differentiate.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Float
+
+__all__ = ["upward_flux", "intensity_toward", "sphere_grid"]
+
+
+def sphere_grid(n_theta: int = 180, n_phi: int = 360):
+    """Midpoint directions and solid angles (sr) of a (θ, φ) grid about world +z, θ from the
+    zenith: the horizon θ = 90° is a cell edge, so "above the horizontal" is exact cells."""
+    t_edges = np.linspace(0.0, np.pi, n_theta + 1)
+    t = 0.5 * (t_edges[1:] + t_edges[:-1])
+    p = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
+    dw = (np.cos(t_edges[:-1]) - np.cos(t_edges[1:]))[:, None] * (2 * np.pi / n_phi)
+    tt, pp = np.meshgrid(t, p, indexing="ij")
+    u = np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], axis=-1)
+    return u.reshape(-1, 3), np.broadcast_to(dw, tt.shape).reshape(-1), (tt < np.pi / 2).ravel()
+
+
+def upward_flux(scene, n_theta: int = 180, n_phi: int = 360
+                ) -> tuple[Float[np.ndarray, " lum"], Float[np.ndarray, " lum"]]:
+    """Per luminaire at dimmer 1: the flux emitted above the horizontal plane and the total
+    flux (lm), ``∫ I(Rᵀu) dω`` over the world's upper hemisphere and over the sphere (its
+    scale included: multiplier, maintenance factor, level, TILT factor)."""
+    u, dw, up = sphere_grid(n_theta, n_phi)
+    uj, dwj, upj = jnp.asarray(u), jnp.asarray(dw), jnp.asarray(up)
+    up_lm, tot_lm = np.zeros(len(scene.luminaires)), np.zeros(len(scene.luminaires))
+    for i, lum in enumerate(scene.luminaires):
+        dist = scene.photometries[lum.photometry].distribution
+        a, b = _fluxes(dist, jnp.asarray(lum.rotation), uj, dwj, upj)
+        up_lm[i], tot_lm[i] = lum.scale * float(a), lum.scale * float(b)
+    return up_lm, tot_lm
+
+
+@jax.jit
+def _fluxes(dist, rot, u, dw, up):
+    i = dist.intensity(u @ rot) * dw  # Rᵀu as row vectors: u @ R
+    return jnp.sum(jnp.where(up, i, 0.0)), jnp.sum(i)
+
+
+def intensity_toward(scene, point, *, shadows: bool = True) -> Float[np.ndarray, " lum"]:
+    """Luminous intensity (cd) of each luminaire toward ``point`` (m) at dimmer 1, 0 where the
+    scene blocks the line of sight."""
+    point = np.asarray(point, np.float64)
+    out = np.zeros(len(scene.luminaires))
+    if not scene.luminaires:
+        return out
+    pos = np.array([lum.position for lum in scene.luminaires])
+    d = point - pos
+    w = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), np.finfo(np.float64).tiny)
+    for i, lum in enumerate(scene.luminaires):
+        dist = scene.photometries[lum.photometry].distribution
+        out[i] = lum.scale * float(dist.intensity(jnp.asarray(w[i] @ lum.rotation)))
+    if shadows and len(scene.triangles):
+        blocked = scene.raycaster.occluded(pos, np.broadcast_to(point, pos.shape))
+        out[blocked] = 0.0
+    return out
