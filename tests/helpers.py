@@ -4,6 +4,7 @@ through tests/conftest.py), and the runtime type checker of the test run."""
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable, Iterable
 
 import jax.numpy as jnp
@@ -75,8 +76,8 @@ def toml_value(v) -> str:
         v = v.tolist()
     if isinstance(v, bool):
         return "true" if v else "false"
-    if isinstance(v, str):
-        return json.dumps(v)
+    if isinstance(v, str | os.PathLike):
+        return json.dumps(os.fspath(v))
     if isinstance(v, dict):
         return "{ " + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + " }"
     if isinstance(v, list | tuple):

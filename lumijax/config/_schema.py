@@ -25,6 +25,8 @@ from pydantic import (
     model_validator,
 )
 
+from ._design_goals import ConstrainedMethod, ConstraintConfig, DesignObjective
+
 __all__ = [
     "StudyConfig",
     "StudyInfo",
@@ -520,6 +522,22 @@ class OptimiseConfig(_Model):
     pan_range_deg: Range = (-15.0, 15.0)
     max_luminance_cdm2: Luminance | None = None
     indirect: bool = True
+    # a constrained design (docs/optimise.md, "Design to a standard"; the models are in
+    # _design_goals.py): None keeps the least-squares fit above
+    objective: DesignObjective | None = None
+    method: ConstrainedMethod = "slsqp"
+    constraints: list[ConstraintConfig] = []
+    constraint_tolerance: Annotated[float, Field(gt=0, le=0.1)] = 1e-3
+    smoothing: Annotated[float, Field(gt=0, le=0.1)] = 1e-3
+    starts: Annotated[int, Field(ge=1, le=64)] = 1
+    seed: Annotated[int, Field(ge=0)] = 0
+
+    @model_validator(mode="after")
+    def _constraints_need_an_objective(self):
+        if self.constraints and self.objective is None:
+            raise ValueError("'constraints' are hard constraints of a constrained design: "
+                             "give 'objective' (\"power\" or \"misfit\") too")
+        return self
 
     @field_validator("variables")
     @classmethod
@@ -527,6 +545,10 @@ class OptimiseConfig(_Model):
         if len(set(v)) != len(v):
             raise ValueError(f"each variable may appear once, got {v}")
         return v
+
+
+# after the field types it uses (_observers imports them from here)
+from ._observers import ObserverConfig  # noqa: E402
 
 
 class StudyConfig(_Model):

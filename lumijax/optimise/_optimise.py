@@ -56,6 +56,11 @@ class Optimisation:
     unmet: list[str]
     seconds: float = 0.0
     config: Any = field(default=None, repr=False)
+    #: A constrained design's record (``[optimise] objective``): verdict ("met",
+    #: "not met exactly", "infeasible"), objective before/after, each constraint's bound,
+    #: start and exact achieved value, activity and price, the starts, and the conflict when
+    #: infeasible (docs/optimise.md); None for the least-squares fit.
+    constrained: dict[str, Any] | None = None
     results: Any = field(default=None, repr=False)
 
     @property
@@ -86,6 +91,8 @@ class Optimisation:
         }
         if self.levels:
             out["levels"] = self.levels
+        if self.constrained is not None:
+            out["constrained"] = self.constrained
         return out
 
     def config_text(self, base_dir: str | Path | None = None) -> str:
@@ -175,17 +182,76 @@ def optimise(study, results, *, cache_dir: str | Path | None = None, **overrides
         raise LumijaxError("the results hold no lighting solution: optimise needs the "
                            "results of lumijax.compute")
     goals = grid_goals(study)
-    if not goals and ocfg.max_luminance_cdm2 is None and ocfg.energy_weight == 0:
+    if (not goals and ocfg.max_luminance_cdm2 is None and ocfg.energy_weight == 0
+            and ocfg.objective is None):
         raise ConfigError("nothing to optimise: no grid has a target or a limit",
                           file=cfg.source, key="optimise")
+    setup = _setup(study, results, ocfg)
+    if ocfg.objective is not None:  # a constrained design (docs/optimise.md)
+        from ._standard import design_to_standard
+
+        return design_to_standard(study, results, ocfg, setup, goals, cache_dir=cache_dir,
+                                  t0=t0)
+    params, model, variable = setup.params, setup.model, setup.variable
+    aims_on, levels_on = setup.aims, setup.levels
+    objective = Objective.build(goals, setup.power, energy_weight=ocfg.energy_weight,
+                                constraint_weight=ocfg.constraint_weight,
+                                patch_max_luminance=ocfg.max_luminance_cdm2)
+
+    solver = "lbfgsb" if ocfg.solver == "auto" else ocfg.solver
+    run = minimise(_residuals, (model, objective), params.x0, params.lower, params.upper,
+                   solver=solver, max_steps=ocfg.max_steps, tolerance=ocfg.tolerance)
+    design = params.unflatten(np.asarray(run.x, np.float64))
+    names_of = [sc.luminaires[i].name for i in variable]
+    opt = Optimisation(
+        solver=solver, variables=tuple(ocfg.variables), iterations=run.iterations,
+        converged=run.converged, objective_history=run.history, design=design,
+        start=params.start,
+        aimed=tuple(names_of) if aims_on else (), levelled=tuple(names_of) if levels_on else (),
+        before={n: g.stats for n, g in results.grids.items()}, after={},
+        targets=[], unmet=[], config=cfg,
+    )
+    # exact: superposition where only dimmers moved, else the study computed at the design
+    # (scene.with_design, the operator from the cache); no config text is written or parsed
+    if results.design.only_dimmers_differ(design):
+        after = results.at(design)
+    else:
+        from .._study import compute
+
+        after = compute(study, design=design, cache_dir=cache_dir)
+    assessed, unmet = _assess(goals, after, ocfg, opt.dimmers)
+    opt = dataclasses.replace(
+        opt, after={n: g.stats for n, g in after.grids.items()}, targets=assessed, unmet=unmet,
+        seconds=time.perf_counter() - t0,
+    )
+    final = dataclasses.replace(after, optimisation=opt)
+    object.__setattr__(opt, "results", final)
+    return opt
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """What both fits share: the variables' layout and bounds, the light model, the power."""
+
+    params: Any
+    model: Any
+    variable: list[int]
+    names: list[str]
+    aims: bool
+    levels: bool
+    power: np.ndarray
+    ranges: list = field(default_factory=list)  # per variable luminaire, degrees, relative
+
+
+def _setup(study, results, ocfg) -> _Setup:
+    """The variables (``traverse``), the light model at them and each network's power (W)."""
+    cfg, sc = study.config, study.scene
+    lighting = results.lighting
     names = sc.network_names
     flux = sc.network_flux_lm()
     power = np.array([
         cfg.networks[n].power_w if n in cfg.networks and cfg.networks[n].power_w is not None
         else flux[n] / LUMENS_PER_WATT for n in names])
-    objective = Objective.build(goals, power, energy_weight=ocfg.energy_weight,
-                                constraint_weight=ocfg.constraint_weight,
-                                patch_max_luminance=ocfg.max_luminance_cdm2)
 
     # the fit starts at the study's dimmers, and at the aims and levels the light was computed
     # at (where the aim model is exact)
@@ -220,34 +286,8 @@ def optimise(study, results, *, cache_dir: str | Path | None = None, **overrides
             jnp.asarray(lighting.radiosity, jnp.float64))
         model = DimmerLight(jnp.asarray(lighting.point_total, jnp.float64), rad)
 
-    solver = "lbfgsb" if ocfg.solver == "auto" else ocfg.solver
-    run = minimise(_residuals, (model, objective), params.x0, params.lower, params.upper,
-                   solver=solver, max_steps=ocfg.max_steps, tolerance=ocfg.tolerance)
-    design = params.unflatten(np.asarray(run.x, np.float64))
-    names_of = [sc.luminaires[i].name for i in variable]
-    opt = Optimisation(
-        solver=solver, variables=tuple(ocfg.variables), iterations=run.iterations,
-        converged=run.converged, objective_history=run.history, design=design, start=start,
-        aimed=tuple(names_of) if aims_on else (), levelled=tuple(names_of) if levels_on else (),
-        before={n: g.stats for n, g in results.grids.items()}, after={},
-        targets=[], unmet=[], config=cfg,
-    )
-    # exact: superposition where only dimmers moved, else the study computed at the design
-    # (scene.with_design, the operator from the cache); no config text is written or parsed
-    if results.design.only_dimmers_differ(design):
-        after = results.at(design)
-    else:
-        from .._study import compute
-
-        after = compute(study, design=design, cache_dir=cache_dir)
-    assessed, unmet = _assess(goals, after, ocfg, opt.dimmers)
-    opt = dataclasses.replace(
-        opt, after={n: g.stats for n, g in after.grids.items()}, targets=assessed, unmet=unmet,
-        seconds=time.perf_counter() - t0,
-    )
-    final = dataclasses.replace(after, optimisation=opt)
-    object.__setattr__(opt, "results", final)
-    return opt
+    return _Setup(params, model, variable, [sc.luminaires[i].name for i in variable],
+                  aims_on, levels_on, power, ranges)
 
 
 def _residuals(x, args):

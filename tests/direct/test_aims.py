@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import central_difference
+from helpers import central_difference, lamp, photometry, point_grid, study
 
 import lumijax
 from lumijax import load_study
@@ -39,28 +39,17 @@ def test_spin_turns_c_planes_counter_clockwise():
 
 
 def _wall_study(write_study, photometry_file, aim, tmp_dir):
-    return write_study(f"""
-        [photometry.p]
-        file = "{photometry_file}"
-        [[luminaires]]
-        name = "L"
-        photometry = "p"
-        position = [0, 0, 0]
-        network = "n"
-        {aim}
-        [[grids]]
-        name = "walls"
-        kind = "points"
-        points = [[3, 0, 0], [-3, 0, 0], [0, 3, 0], [0, -3, 0], [0, 0, -3], [0, 0, 3]]
-        normals = [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1]]
-    """)
+    return write_study(study(
+        photometry("p", file=photometry_file), lamp("L", [0, 0, 0], photometry="p", **aim),
+        point_grid("walls", [[3, 0, 0], [-3, 0, 0], [0, 3, 0], [0, -3, 0], [0, 0, -3], [0, 0, 3]],
+                   [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1]])))
 
 
 @pytest.mark.parametrize(
     "aim,brightest",
-    [("", 4), ("aim = {tilt = 90}", 0), ("aim = {tilt = 90, pan = 90}", 2),
-     ("aim = {tilt = 90, pan = 180}", 1), ("aim = {tilt = 180}", 5),
-     ("aim_at = [0, -7, 0]", 3), ("aim = {tilt = 90, pan = -90, spin = 33}", 3)],
+    [({}, 4), ({"aim": {"tilt": 90}}, 0), ({"aim": {"tilt": 90, "pan": 90}}, 2),
+     ({"aim": {"tilt": 90, "pan": 180}}, 1), ({"aim": {"tilt": 180}}, 5),
+     ({"aim_at": [0, -7, 0]}, 3), ({"aim": {"tilt": 90, "pan": -90, "spin": 33}}, 3)],
 )
 def test_beam_goes_where_the_convention_says(write_study, shared_photometry, tmp_path, aim,
                                              brightest):
@@ -78,19 +67,8 @@ def test_real_downlight_matches_its_tabulated_candela(write_study, shared_photom
     table = np.array([330.8, 336.8, 331.4, 90.7])  # cd at those γ, as printed in the file
     xs = h * np.tan(np.radians(gammas))
     pts = [[float(x), 0.0, 0.0] for x in xs]
-    path = write_study(f"""
-        [photometry.p]
-        file = "{shared_photometry / BEGA}"
-        [[luminaires]]
-        name = "L"
-        photometry = "p"
-        position = [0, 0, {h}]
-        network = "n"
-        [[grids]]
-        name = "g"
-        kind = "points"
-        points = {pts}
-    """)
+    path = write_study(study(photometry("p", file=shared_photometry / BEGA),
+                             lamp("L", [0, 0, h], photometry="p"), point_grid("g", pts)))
     lux = compute(load_study(path))["g"].illuminance_lux
     np.testing.assert_allclose(lux, table * np.cos(np.radians(gammas)) ** 3 / h**2, rtol=1e-3)
 

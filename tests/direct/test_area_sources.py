@@ -10,6 +10,7 @@ from functools import partial
 
 import numpy as np
 import pytest
+from helpers import area_lamp, box, material, point_grid, rectangle, study
 
 import lumijax
 from lumijax import load_study
@@ -21,22 +22,11 @@ FLUX = 5000.0
 
 
 def _study(write_study, origin, u, v, points, normals, extra=""):
-    return write_study(f"""
-        [[luminaires]]
-        name = "panel"
-        kind = "area"
-        origin = {[float(x) for x in origin]}
-        u = {[float(x) for x in u]}
-        v = {[float(x) for x in v]}
-        flux_lm = {FLUX}
-        network = "n"
-        [[grids]]
-        name = "g"
-        kind = "points"
-        points = {[[float(x) for x in p] for p in points]}
-        normals = {[[float(x) for x in n] for n in normals]}
-        {extra}
-    """)
+    return write_study(study(
+        area_lamp("panel", [float(x) for x in origin], [float(x) for x in u],
+                  [float(x) for x in v], FLUX),
+        point_grid("g", [[float(x) for x in p] for p in points],
+                   [[float(x) for x in n] for n in normals]), extra))
 
 
 @pytest.mark.parametrize(
@@ -90,16 +80,7 @@ def test_back_of_panel_emits_nothing(write_study):
 
 def test_blocker_casts_partial_shadow(write_study):
     """A thin opaque strip under half the panel roughly halves the light at a point below."""
-    extra = """
-        [materials.m]
-        reflectance = 0.3
-        [[geometry]]
-        kind = "rectangle"
-        origin = [-1, -1, 0.5]
-        u = [1, 0, 0]
-        v = [0, 2, 0]
-        material = "m"
-    """
+    extra = material("m", 0.3) + rectangle([-1, -1, 0.5], [1, 0, 0], [0, 2, 0], "m")
     path = _study(write_study, (-0.5, -0.5, 1.0), (0, 1, 0), (1, 0, 0), [(0, 0, 0)],
                   [(0, 0, 1)], extra)
     res = compute(load_study(path))["g"].illuminance_lux[0]
@@ -119,16 +100,7 @@ def test_occluder_hiding_one_quadrant_exactly(write_study):
     """A 0.5 m square at half height hides exactly one quadrant of a 2 × 2 m panel 2 m above
     the receiver: E = M · 3 · F_corner(1, 1, 2). Its shadow edge lies on the panel's pieces,
     so the adaptive subdivision must give the closed form to rounding."""
-    extra = """
-        [materials.m]
-        reflectance = 0.3
-        [[geometry]]
-        kind = "rectangle"
-        origin = [0, 0, 1]
-        u = [0.5, 0, 0]
-        v = [0, 0.5, 0]
-        material = "m"
-    """
+    extra = material("m", 0.3) + rectangle([0, 0, 1], [0.5, 0, 0], [0, 0.5, 0], "m")
     path = _study(write_study, (-1, -1, 2), (0, 2, 0), (2, 0, 0), [(0, 0, 0)], [(0, 0, 1)],
                   extra)
     e = compute(load_study(path))["g"].illuminance_lux[0]
@@ -140,16 +112,7 @@ def test_unobstructed_panel_needs_no_ray(write_study):
     their view of the panel, so the light is the exact contour integral and no ray is cast."""
     from lumijax.direct import direct_illuminance
 
-    extra = """
-        [materials.m]
-        reflectance = 0.3
-        [[geometry]]
-        kind = "box"
-        min = [-2, -2, 0]
-        max = [2, 2, 2]
-        normals = "inward"
-        material = "m"
-    """
+    extra = material("m", 0.3) + box([-2, -2, 0], [2, 2, 2], "m")
     pts = [(x, y, 0.0) for x in (-1.9, -0.3, 0.0, 1.2) for y in (-1.0, 0.4, 1.9)]
     path = _study(write_study, (-2, -2, 1.999), (0, 4, 0), (4, 0, 0), pts, [(0, 0, 1)] * 12,
                   extra)

@@ -6,6 +6,7 @@ from functools import partial
 
 import jax.numpy as jnp
 import numpy as np
+from helpers import lamp, photometry, plane_grid, study
 
 import lumijax
 from lumijax import load_study
@@ -27,23 +28,9 @@ def test_offsets_follow_the_five_times_rule():
 
 
 def _study(write_study, folder, height):
-    return write_study(f"""
-        [photometry.bar]
-        file = "{folder / BAR}"
-        [[luminaires]]
-        name = "bar"
-        photometry = "bar"
-        position = [0, 0, {height}]
-        network = "n"
-        [[grids]]
-        name = "g"
-        kind = "plane"
-        origin = [-1, -0.5, 0]
-        u = [2, 0, 0]
-        v = [0, 1, 0]
-        nu = 21
-        nv = 11
-    """)
+    return write_study(study(
+        photometry("bar", file=folder / BAR), lamp("bar", [0, 0, height], photometry="bar"),
+        plane_grid("g", [-1, -0.5, 0], [2, 0, 0], [0, 1, 0], nu=21, nv=11)))
 
 
 def _converged(dist, height, pts, n=1120, length=1.12):

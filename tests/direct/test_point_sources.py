@@ -6,6 +6,17 @@ from functools import partial
 
 import numpy as np
 import pytest
+from helpers import (
+    box,
+    lamp,
+    material,
+    network,
+    photometry,
+    plane_grid,
+    point_grid,
+    rectangle,
+    study,
+)
 
 import lumijax
 from lumijax import load_study
@@ -16,28 +27,17 @@ compute = partial(lumijax.compute, indirect=False)
 ISO = 4000.0  # lm
 
 
-def _plane_study(write_study, *, extra="", height=2.5, aim="", grid_normal=""):
-    return write_study(f"""
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {ISO}
-        [[luminaires]]
-        name = "L"
-        photometry = "iso"
-        position = [0, 0, {height}]
-        network = "n"
-        {aim}
-        [[grids]]
-        name = "g"
-        kind = "plane"
-        origin = [-5, -5, 0]
-        u = [10, 0, 0]
-        v = [0, 10, 0]
-        nu = 21
-        nv = 21
-        {grid_normal}
-        {extra}
-    """)
+def _plane_study(write_study, **grid):
+    """A 4000 lm isotropic lamp 2.5 m above a 10 × 10 m grid of 21 × 21 points at z = 0."""
+    return write_study(study(
+        photometry("iso", "isotropic", ISO), lamp("L", [0, 0, 2.5]),
+        plane_grid("g", [-5, -5, 0], [10, 0, 0], [0, 10, 0], nu=21, nv=21, **grid)))
+
+
+def _lamp_over(points, *parts, **lamp_keys):
+    """A 1000 lm isotropic lamp at (0, 0, 2) m over a grid of ``points``, and ``parts``."""
+    return study(photometry("iso", "isotropic", 1000), *parts,
+                 lamp("L", [0, 0, 2], **lamp_keys), point_grid("g", points))
 
 
 def test_isotropic_point_over_plane_is_inverse_square_cosine(write_study):
@@ -52,7 +52,7 @@ def test_isotropic_point_over_plane_is_inverse_square_cosine(write_study):
 
 def test_vertical_receiver_uses_its_own_cosine(write_study):
     """A grid facing +x receives I·x/d³ from a source on its +x side only... or none at all."""
-    path = _plane_study(write_study, grid_normal="normal = [-1, 0, 0]")
+    path = _plane_study(write_study, normal=[-1, 0, 0])
     g = compute(load_study(path))["g"]
     p = g.points - np.array([0, 0, 2.5])
     d = np.linalg.norm(p, axis=1)
@@ -62,29 +62,10 @@ def test_vertical_receiver_uses_its_own_cosine(write_study):
 
 
 def test_dimmer_scales_exactly_and_networks_superpose(write_study):
-    path = write_study("""
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = 1000
-        [networks.a]
-        dimmer = 0.25
-        [networks.b]
-        dimmer = 0.5
-        [[luminaires]]
-        name = "A"
-        photometry = "iso"
-        position = [0, 0, 2]
-        network = "a"
-        [[luminaires]]
-        name = "B"
-        photometry = "iso"
-        position = [1, 0, 3]
-        network = "b"
-        [[grids]]
-        name = "g"
-        kind = "points"
-        points = [[0, 0, 0], [1, 1, 0], [3, -1, 0]]
-    """)
+    path = write_study(study(
+        photometry("iso", "isotropic", 1000), network("a", 0.25), network("b", 0.5),
+        lamp("A", [0, 0, 2], "a"), lamp("B", [1, 0, 3], "b"),
+        point_grid("g", [[0, 0, 0], [1, 1, 0], [3, -1, 0]])))
     g = compute(load_study(path))["g"]
     pts = g.points
     i = 1000 / (4 * np.pi)
@@ -99,31 +80,10 @@ def test_dimmer_scales_exactly_and_networks_superpose(write_study):
 def test_shadow_of_a_box_matches_projection(write_study):
     """A point source above a cube: the floor inside the cube's projected outline is dark,
     the floor outside it gets the unobstructed closed form."""
-    path = write_study(f"""
-        [materials.m]
-        reflectance = 0.5
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {ISO}
-        [[geometry]]
-        kind = "box"
-        min = [-0.5, -0.5, 1.0]
-        max = [0.5, 0.5, 2.0]
-        material = "m"
-        [[luminaires]]
-        name = "L"
-        photometry = "iso"
-        position = [0, 0, 4]
-        network = "n"
-        [[grids]]
-        name = "g"
-        kind = "plane"
-        origin = [-3, -3, 0]
-        u = [6, 0, 0]
-        v = [0, 6, 0]
-        nu = 60
-        nv = 60
-    """)
+    path = write_study(study(
+        material("m", 0.5), photometry("iso", "isotropic", ISO),
+        box([-0.5, -0.5, 1.0], [0.5, 0.5, 2.0], "m", normals=None), lamp("L", [0, 0, 4]),
+        plane_grid("g", [-3, -3, 0], [6, 0, 0], [0, 6, 0], nu=60, nv=60)))
     g = compute(load_study(path))["g"]
     x, y = g.points[:, 0], g.points[:, 1]
     # The outline is the projection of the box's top face (z = 2, nearest the source at z = 4)
@@ -138,28 +98,8 @@ def test_shadow_of_a_box_matches_projection(write_study):
 
 
 def test_no_shadows_option_ignores_geometry(write_study):
-    path = write_study("""
-        [materials.m]
-        reflectance = 0.5
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = 1000
-        [[geometry]]
-        kind = "rectangle"
-        origin = [-1, -1, 1]
-        u = [2, 0, 0]
-        v = [0, 2, 0]
-        material = "m"
-        [[luminaires]]
-        name = "L"
-        photometry = "iso"
-        position = [0, 0, 2]
-        network = "n"
-        [[grids]]
-        name = "g"
-        kind = "points"
-        points = [[0, 0, 0]]
-    """)
+    path = write_study(_lamp_over([[0, 0, 0]], material("m", 0.5),
+                                  rectangle([-1, -1, 1], [2, 0, 0], [0, 2, 0], "m")))
     study = load_study(path)
     assert compute(study)["g"].illuminance_lux[0] == 0.0
     np.testing.assert_allclose(
@@ -168,46 +108,16 @@ def test_no_shadows_option_ignores_geometry(write_study):
 
 
 def test_spectrum_never_changes_lux(write_study):
-    text = """
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = 1000
-        [[luminaires]]
-        name = "L"
-        photometry = "iso"
-        position = [0, 0, 2]
-        network = "n"
-        SPECTRUM
-        [[grids]]
-        name = "g"
-        kind = "points"
-        points = [[0, 0, 0], [1, 2, 0]]
-    """
-    plain = compute(load_study(write_study(text.replace("SPECTRUM", ""), "a.toml")))
+    pts = [[0, 0, 0], [1, 2, 0]]
+    plain = compute(load_study(write_study(_lamp_over(pts), "a.toml")))
     for name in ("A", "FL11", "D65"):
-        tinted = compute(load_study(write_study(
-            text.replace("SPECTRUM", f'spectrum = "{name}"'), f"{name}.toml")))
+        tinted = compute(load_study(write_study(_lamp_over(pts, spectrum=name), f"{name}.toml")))
         np.testing.assert_array_equal(tinted["g"].illuminance_lux, plain["g"].illuminance_lux)
 
 
 @pytest.mark.parametrize("mf,mult", [(0.8, 1.0), (1.0, 2.5), (0.7, 0.5)])
 def test_multiplier_and_maintenance_factor_scale_light_and_flux(write_study, mf, mult):
-    path = write_study(f"""
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = 1000
-        [[luminaires]]
-        name = "L"
-        photometry = "iso"
-        position = [0, 0, 2]
-        network = "n"
-        multiplier = {mult}
-        maintenance_factor = {mf}
-        [[grids]]
-        name = "g"
-        kind = "points"
-        points = [[0, 0, 0]]
-    """)
+    path = write_study(_lamp_over([[0, 0, 0]], multiplier=mult, maintenance_factor=mf))
     res = compute(load_study(path))
     np.testing.assert_allclose(res["g"].illuminance_lux[0], mf * mult * 1000 / (16 * np.pi))
     np.testing.assert_allclose(res.networks["n"]["flux_lm"], mf * mult * 1000, rtol=1e-6)

@@ -1,0 +1,218 @@
+"""The constrained solve: minimise an objective (W, or a misfit) over the box of the design's
+variables subject to hard constraints, by scipy's SLSQP (default) or trust-constr fed by JAX.
+
+``f`` and the margins ``g`` (one per constraint, ≥ 0 when met; ``_constraints``) are compiled
+once with their gradient and Jacobian (reverse mode: a few constraints, up to thousands of
+variables). The aggregation of minima and maxima is solved by continuation: first at ε = 10⁻²
+(gentle curvature, a good active set), then from there at the requested ε.
+
+After the solve the Lagrange multipliers are recovered from the KKT conditions at the solution,
+independently of the method: ``∇f = Σ μ_j ∇g_j + Σ ν_i (±e_i)`` over the active constraints and
+bounds, μ, ν ≥ 0 by non-negative least squares. ``μ_j`` converts to the price of constraint j
+in the objective's units per unit of its bound, ``∂f*/∂b_j = μ_j · sense_j / scale_j`` (the
+envelope theorem), checked in tests by re-solving at a tightened bound.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._constraints import AbstractConstraint, DesignLight
+
+__all__ = ["DesignProblem", "ConstrainedRun", "solve_constrained", "kkt_multipliers"]
+
+_ACTIVE = 1e-3  # a margin (relative) below which a constraint counts as active
+_COARSE = 1e-2  # the first aggregation ε of the continuation
+
+
+class DesignProblem(eqx.Module):
+    """Objective and constraints over the flat variables of a light model.
+
+    ``model(x) -> (e, b, alpha)`` is one of ``_models``' light models; ``objective(light)`` is
+    in natural units (W for power) and divided by ``objective_scale`` for the solver.
+    """
+
+    model: eqx.Module
+    objective: eqx.Module
+    constraints: tuple[AbstractConstraint, ...]
+    objective_scale: float = eqx.field(static=True, default=1.0)
+
+    def light(self, x) -> DesignLight:
+        e, b, alpha = self.model(x)
+        return DesignLight(e, b, alpha, x)
+
+    def f(self, x):
+        return self.objective(self.light(x)) / self.objective_scale
+
+    def g(self, x, smooth):
+        light = self.light(x)
+        if not self.constraints:
+            return jnp.zeros(0, x.dtype)
+        return jnp.stack([c.margin(light, smooth) for c in self.constraints])
+
+    def values(self, x, smooth=None):
+        light = self.light(x)
+        return jnp.stack([c.value(light, smooth) for c in self.constraints]) if (
+            self.constraints) else jnp.zeros(0)
+
+
+@eqx.filter_jit
+def _f_grad(problem, x):
+    return jax.value_and_grad(problem.f)(x)
+
+
+@eqx.filter_jit
+def _g_traced(problem, x, smooth):
+    return problem.g(x, smooth)
+
+
+@eqx.filter_jit
+def _g_jac_traced(problem, x, smooth):
+    return jax.jacrev(problem.g)(x, smooth)
+
+
+# ε is an array (traced), so that the continuation's two ε compile once
+def _g(problem, x, smooth):
+    return _g_traced(problem, x, jnp.asarray(smooth, jnp.float64))
+
+
+def _g_jac(problem, x, smooth):
+    return _g_jac_traced(problem, x, jnp.asarray(smooth, jnp.float64))
+
+
+@dataclass
+class ConstrainedRun:
+    """Where the constrained solve stopped.
+
+    ``objective`` is in natural units (W); ``violation`` the largest relative shortfall of a
+    smoothed constraint (0 when every margin ≥ 0); ``multipliers`` the KKT μ per constraint
+    (dimensionless, on the margins) and ``prices`` ``∂f*/∂bound`` in objective units per unit
+    of each bound; ``active`` which constraints are active.
+    """
+
+    method: str
+    x: np.ndarray
+    objective: float
+    violation: float
+    iterations: int
+    evaluations: int
+    success: bool
+    message: str
+    history: list[float] = field(default_factory=list)
+    multipliers: np.ndarray | None = None
+    prices: np.ndarray | None = None
+    active: np.ndarray | None = None
+    seconds: float = 0.0
+
+
+def _one_solve(problem, x0, lo, hi, smooth, method, max_steps, tol):
+    from scipy.optimize import Bounds, NonlinearConstraint, minimize
+
+    counter = {"n": 0}
+    history: list[float] = []
+
+    def fun(x):
+        counter["n"] += 1
+        v, g = _f_grad(problem, jnp.asarray(x))
+        return float(v), np.asarray(g, np.float64)
+
+    def cons(x):
+        return np.asarray(_g(problem, jnp.asarray(x), smooth), np.float64)
+
+    def jac(x):
+        return np.asarray(_g_jac(problem, jnp.asarray(x), smooth), np.float64).reshape(
+            -1, len(x))
+
+    def callback(*args):
+        xk = args[0] if not hasattr(args[0], "x") else args[0].x
+        history.append(fun(np.asarray(xk))[0] * problem.objective_scale)
+
+    free = np.asarray(lo) < np.asarray(hi)
+    # a pinned variable is a bound with lo == hi; SLSQP takes it, trust-constr needs lo < hi
+    lo_s = np.where(free, lo, lo - 1e-12) if method == "trust-constr" else lo
+    bounds = Bounds(lo_s, np.where(free, hi, hi + 1e-12) if method == "trust-constr" else hi)
+    m = len(problem.constraints)
+    if method == "slsqp":
+        kw = dict(constraints=[{"type": "ineq", "fun": cons, "jac": jac}] if m else [],
+                  options=dict(maxiter=max_steps, ftol=tol * 1e-3))
+        res = minimize(fun, x0, jac=True, method="SLSQP", bounds=bounds, callback=callback,
+                       **kw)
+    else:
+        nl = [NonlinearConstraint(cons, 0.0, np.inf, jac=jac)] if m else []
+        res = minimize(fun, x0, jac=True, method="trust-constr", bounds=bounds,
+                       constraints=nl, callback=callback,
+                       options=dict(maxiter=max_steps * 5, gtol=tol * 1e-2,
+                                    xtol=tol * 1e-4, verbose=0))
+    x = np.clip(np.asarray(res.x, np.float64), lo, hi)
+    return x, res, counter["n"], history
+
+
+def solve_constrained(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-3,
+                      method: str = "slsqp", max_steps: int = 200,
+                      tolerance: float = 1e-3) -> ConstrainedRun:
+    """Minimise ``problem.f`` over ``lo ≤ x ≤ hi`` with every margin ``g(x, smooth) ≥ 0``.
+
+    ``tolerance`` is the relative violation accepted (margins ≥ −tolerance). Returns the last
+    point (clipped to the box) with its KKT multipliers and prices.
+    """
+    t0 = time.perf_counter()
+    x = np.clip(np.asarray(x0, np.float64), lo, hi)
+    schedule = [smooth] if smooth >= _COARSE else [_COARSE, smooth]
+    iterations = evaluations = 0
+    history = [float(_f_grad(problem, jnp.asarray(x))[0]) * problem.objective_scale]
+    res = None
+    for eps in schedule:
+        x, res, n, hist = _one_solve(problem, x, lo, hi, eps, method, max_steps, tolerance)
+        iterations += int(getattr(res, "nit", 0) or 0)
+        evaluations += n
+        history += hist
+    g = np.asarray(_g(problem, jnp.asarray(x), smooth), np.float64)
+    violation = float(np.max(-g, initial=0.0)) if g.size else 0.0
+    violation = max(violation, 0.0)
+    mu, prices, active = kkt_multipliers(problem, x, lo, hi, smooth)
+    obj = float(_f_grad(problem, jnp.asarray(x))[0]) * problem.objective_scale
+    return ConstrainedRun(
+        method=method, x=x, objective=obj, violation=violation, iterations=iterations,
+        evaluations=evaluations, success=bool(res.success) and violation <= tolerance,
+        message=str(res.message), history=history + [obj], multipliers=mu, prices=prices,
+        active=active, seconds=time.perf_counter() - t0)
+
+
+def kkt_multipliers(problem: DesignProblem, x, lo, hi, smooth, *, active_tol: float = _ACTIVE):
+    """``(μ, prices, active)`` at ``x``: non-negative multipliers of the active constraints
+    and bounds that best satisfy ``∇f = Σ μ_j ∇g_j + Σ ν_i (±e_i)`` (NNLS), and the price of
+    each constraint ``∂f*/∂b_j = μ_j · sense_j · objective_scale / scale_j`` (objective units
+    per unit of the bound; 0 for an inactive constraint)."""
+    from scipy.optimize import nnls
+
+    x = np.asarray(x, np.float64)
+    m = len(problem.constraints)
+    _, grad = _f_grad(problem, jnp.asarray(x))
+    grad = np.asarray(grad, np.float64)
+    if m == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0, bool)
+    g = np.asarray(_g(problem, jnp.asarray(x), smooth), np.float64)
+    jac = np.asarray(_g_jac(problem, jnp.asarray(x), smooth), np.float64).reshape(m, -1)
+    active = g <= active_tol
+    span = np.maximum(np.asarray(hi) - np.asarray(lo), 1e-300)
+    at_lo = (x - lo) <= 1e-6 * span
+    at_hi = (hi - x) <= 1e-6 * span
+    cols = [jac[active].T]
+    n = len(x)
+    eye = np.eye(n)
+    cols += [eye[:, at_lo], -eye[:, at_hi]]
+    a = np.concatenate(cols, axis=1)
+    mu = np.zeros(m)
+    if a.shape[1]:
+        sol, _ = nnls(a, grad, maxiter=50 * a.shape[1] + 100)
+        mu[active] = sol[:int(active.sum())]
+    scales = np.array([c.scale for c in problem.constraints])
+    senses = np.array([c.sense for c in problem.constraints], np.float64)
+    prices = mu * senses * problem.objective_scale / scales
+    return mu, prices, active & (mu > 1e-9)

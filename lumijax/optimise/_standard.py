@@ -1,0 +1,398 @@
+"""Design to a standard: the least power (or misfit) that meets every requirement as a hard
+constraint, proof when none can, and the price of each requirement (docs/optimise.md).
+
+The requirements are the grids' own limits read as hard constraints — ``target_lux`` as
+Ēm ≥ target (EN 12464-1's maintained average is a floor), ``min_lux``, ``max_lux``,
+``uniformity_min``, ``max_luminance_cdm2``, a ``target_csv`` map as RMS misfit ≤ 5 % of its
+mean — and every ``[[optimise.constraints]]`` entry; ``[optimise] max_luminance_cdm2`` bounds
+the brightest patch. The solve is ``_constrained``'s; the design it returns is lit exactly
+(superposition, or the study computed at it) and every constraint checked on the exact
+criterion.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from ..errors import ConfigError
+from ._constrained import DesignProblem, solve_constrained
+from ._constraints import (
+    DesignLight,
+    GridAverage,
+    GridLuminance,
+    GridMaximum,
+    GridMinimum,
+    GridUniformity,
+    MapMisfit,
+    PatchLuminance,
+    PowerModel,
+    TotalPower,
+    reference,
+)
+from ._infeasible import explain_infeasible, find_feasible
+from ._objective import Objective
+
+__all__ = ["build_constraints", "design_to_standard", "MAP_MISFIT_MAX", "price_step"]
+
+MAP_MISFIT_MAX = 0.05
+"""A ``target_csv`` map read as a constraint: RMS misfit at most 5 % of the map's mean (the
+least-squares fit's "met")."""
+
+_AGREE = 0.01  # starts whose objective is within 1 % of the best "agree"
+
+_CLASSES = {"avg": GridAverage, "min": GridMinimum, "max": GridMaximum, "u0": GridUniformity,
+            "luminance": GridLuminance, "misfit": MapMisfit}
+_NAMES = {"avg": "Eavg", "min": "Emin", "max": "Emax", "u0": "U0", "luminance": "luminance",
+          "misfit": "target-map misfit", "power": "total power",
+          "patch_luminance": "brightest patch luminance", "ugr": "UGR", "gr": "GR"}
+_UNITS = {"avg": "lx", "min": "lx", "max": "lx", "u0": "", "luminance": "cd/m²", "misfit": "",
+          "power": "W", "patch_luminance": "cd/m²", "ugr": "", "gr": ""}
+
+
+def price_step(criterion: str, bound: float, sense: int) -> float:
+    """The tightening a price sentence quotes: +0.05 for U0, 10 % of the bound otherwise
+    (towards the harder side)."""
+    step = 0.05 if criterion == "u0" else 0.1 * abs(bound)
+    return sense * step
+
+
+def _grids(study):
+    out, start = {}, 0
+    for i, (gc, g) in enumerate(zip(study.config.grids, study.scene.grids, strict=True)):
+        out[g.name] = (i, start, start + len(g), gc)
+        start += len(g)
+    return out
+
+
+def build_constraints(study, ocfg, goals, power: PowerModel, *, has_patches: bool):
+    """The hard constraints of a constrained design, with ``criterion`` names (for the price
+    steps); a :class:`ConfigError` names the key of a constraint the study cannot compute or
+    that contradicts another."""
+    cfg = study.config
+    grids = _grids(study)
+    goal_of = {g.name: g for g in goals}
+    made = []  # (criterion, constraint)
+
+    def grid_constraint(crit, grid, sense, bound, key):
+        i, start, stop, gc = grids[grid]
+        cls = _CLASSES[crit]
+        extra = {}
+        if crit == "luminance":
+            if gc.reflectance is None:
+                raise ConfigError(f"a luminance constraint on grid {grid!r} needs the grid's "
+                                  "'reflectance' (L = ρE/π)", file=cfg.source, key=key)
+            extra["rho"] = float(gc.reflectance)
+        if crit == "misfit":
+            goal = goal_of.get(grid)
+            if goal is None or goal.target_kind != "target_csv":
+                raise ConfigError(f"a misfit constraint needs a 'target_csv' map on grid "
+                                  f"{grid!r}", file=cfg.source, key=key)
+            extra["target"] = jnp.asarray(goal.target)
+        c = cls(label=f"grid {grid!r}: {_NAMES[crit]}", key=key, unit=_UNITS[crit],
+                sense=sense, bound=jnp.asarray(float(bound)), ref=reference(bound),
+                start=start, stop=stop, **extra)
+        made.append((crit, c))
+
+    for name, (i, _, _, gc) in grids.items():
+        k = f"grids[{i}]"
+        if gc.target_lux is not None and gc.target_lux > 0:
+            grid_constraint("avg", name, 1, gc.target_lux, f"{k}.target_lux")
+        if gc.target_csv is not None and ocfg.objective != "misfit":
+            grid_constraint("misfit", name, -1, MAP_MISFIT_MAX, f"{k}.target_csv")
+        if gc.min_lux is not None and gc.min_lux > 0:
+            grid_constraint("min", name, 1, gc.min_lux, f"{k}.min_lux")
+        if gc.max_lux is not None:
+            grid_constraint("max", name, -1, gc.max_lux, f"{k}.max_lux")
+        if gc.uniformity_min is not None:
+            grid_constraint("u0", name, 1, gc.uniformity_min, f"{k}.uniformity_min")
+        if gc.max_luminance_cdm2 is not None:
+            grid_constraint("luminance", name, -1, gc.max_luminance_cdm2,
+                            f"{k}.max_luminance_cdm2")
+    if ocfg.max_luminance_cdm2 is not None:
+        if not has_patches:
+            raise ConfigError("a patch luminance limit needs inter-reflection (patches): the "
+                              "study computes none", file=cfg.source,
+                              key="optimise.max_luminance_cdm2")
+        made.append(("patch_luminance", _patch(ocfg.max_luminance_cdm2,
+                                               "optimise.max_luminance_cdm2")))
+    for j, cc in enumerate(ocfg.constraints):
+        key = f"optimise.constraints[{j}]"
+        if cc.grid is not None and cc.grid not in grids:
+            raise ConfigError(f"no grid named {cc.grid!r}; grids: {', '.join(grids) or 'none'}",
+                              file=cfg.source, key=f"{key}.grid")
+        if cc.criterion in ("ugr", "gr"):
+            raise ConfigError(
+                f"the study computes no {cc.criterion.upper()}: the glare ratings are not "
+                "available to the optimiser in this build (lumijax.glare); the constraint "
+                "class is ready (FunctionConstraint)", file=cfg.source, key=f"{key}.criterion")
+        for side, sense in (("min", 1), ("max", -1)):
+            bound = getattr(cc, side)
+            if bound is None:
+                continue
+            if cc.criterion == "power":
+                made.append(("power", TotalPower(
+                    label="total power", key=f"{key}.{side}", unit="W", sense=sense,
+                    bound=jnp.asarray(float(bound)), ref=reference(bound), power=power)))
+            elif cc.criterion == "patch_luminance":
+                if not has_patches:
+                    raise ConfigError("a patch luminance constraint needs inter-reflection "
+                                      "(patches): the study computes none", file=cfg.source,
+                                      key=f"{key}.criterion")
+                made.append(("patch_luminance", _patch(bound, f"{key}.{side}")))
+            else:
+                grid_constraint(cc.criterion, cc.grid, sense, bound, f"{key}.{side}")
+    _contradictions(made, cfg)
+    return made
+
+
+def _patch(bound, key):
+    return PatchLuminance(label="brightest patch luminance", key=key, unit="cd/m²", sense=-1,
+                          bound=jnp.asarray(float(bound)), ref=reference(bound))
+
+
+def _contradictions(made, cfg):
+    """Bounds no design can meet together on one grid: a floor on the points (Emin) or on the
+    average above a ceiling on the points (Emax) or on the average."""
+    by_grid: dict = {}
+    for crit, c in made:
+        if crit in ("avg", "min", "max"):
+            by_grid.setdefault(c.label.rpartition(":")[0], []).append((crit, c))
+    for grid, cs in by_grid.items():
+        floors = [(c, float(c.bound)) for crit, c in cs if c.sense > 0]
+        ceilings = [(c, float(c.bound)) for crit, c in cs if c.sense < 0]
+        kind = {id(c): crit for crit, c in cs}
+        for f, fb in floors:
+            for c, cb in ceilings:
+                # Emin ≤ Eavg ≤ Emax: a floor on Emin or Eavg above a ceiling on Eavg or Emax
+                # conflicts; Eavg ≥ a does not conflict with Emin ≤ … (no such ceiling here)
+                if kind[id(f)] == "min" or kind[id(c)] == "max" or kind[id(f)] == kind[id(c)]:
+                    if fb > cb:
+                        raise ConfigError(
+                            f"{grid}: {f.label.rpartition(': ')[2]} ≥ {fb:g} ({f.key}) is above "
+                            f"{c.label.rpartition(': ')[2]} ≤ {cb:g} ({c.key}): no design can "
+                            "meet both", file=cfg.source, key=f.key)
+
+
+class _Misfit(eqx.Module):
+    """The least-squares fit's target terms as the objective (dimensionless)."""
+
+    objective: Objective
+
+    def __call__(self, light: DesignLight):
+        return self.objective.value(light.e, light.b, light.alpha)
+
+
+def _power_model(setup, sc) -> PowerModel:
+    p = jnp.asarray(setup.power, jnp.float64)
+    if not setup.levels:
+        return PowerModel(p)
+    flux = sc.network_flux_lm()
+    net_index = {n: k for k, n in enumerate(sc.network_names)}
+    lum_net, lum_p = [], []
+    for i in setup.variable:
+        lum = sc.luminaires[i]
+        k = net_index[lum.network]
+        share = sc.photometries[lum.photometry].integrated_lm * lum.scale
+        lum_net.append(k)
+        lum_p.append(setup.power[k] * share / flux[lum.network] if flux[lum.network] > 0
+                     else 0.0)
+    v = len(setup.variable)
+    k = len(sc.networks)
+    return PowerModel(p, jnp.asarray(lum_net, jnp.int32), jnp.asarray(lum_p, jnp.float64),
+                      k + (2 * v if setup.aims else 0))
+
+
+def exact_light(study, results, params) -> DesignLight:
+    """The light of exact results (grid illuminance, patch radiosity at the dimmers)."""
+    e = np.concatenate([results.grids[g.name].illuminance_lux for g in study.scene.grids])
+    alpha = np.asarray(results.design.dimmers, np.float64)
+    lighting = results.lighting
+    b = None
+    if lighting is not None and lighting.patches is not None and lighting.radiosity.size:
+        b = jnp.asarray(alpha @ np.asarray(lighting.radiosity, np.float64))
+    return DesignLight(jnp.asarray(e), b, jnp.asarray(alpha),
+                       jnp.asarray(params.flatten(results.design)))
+
+
+def _starts(params, n, seed):
+    lo, hi = np.asarray(params.lower), np.asarray(params.upper)
+    rng = np.random.default_rng(seed)
+    out = [np.asarray(params.x0, np.float64)]
+    for _ in range(n - 1):
+        out.append(lo + (hi - lo) * rng.uniform(size=lo.shape))
+    return out
+
+
+def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0=None):
+    """The constrained design (``[optimise] objective`` set): see the module docstring.
+    Returns an :class:`~lumijax.optimise.Optimisation` whose ``constrained`` holds the
+    verdict, the constraints before and after, the prices and, if infeasible, the conflict."""
+    from ._optimise import Optimisation
+
+    t0 = time.perf_counter() if t0 is None else t0
+    cfg, sc = study.config, study.scene
+    params, model = setup.params, setup.model
+    lo, hi = np.asarray(params.lower), np.asarray(params.upper)
+    if not np.any(params.free):
+        raise ConfigError("every variable's range is empty (lower = upper): nothing can move "
+                          "(dimmer_min = 1, or aim ranges of [0, 0])", file=cfg.source,
+                          key="optimise.variables")
+    lighting = results.lighting
+    has_patches = lighting.patches is not None and lighting.radiosity.size > 0
+    power = _power_model(setup, sc)
+    made = build_constraints(study, ocfg, goals, power, has_patches=has_patches)
+    constraints = tuple(c for _, c in made)
+    if ocfg.objective == "power":
+        if not constraints:
+            raise ConfigError("a least-power design needs a requirement: with none, every "
+                              "network off is the answer (give a grid limit or "
+                              "[[optimise.constraints]])", file=cfg.source,
+                              key="optimise.objective")
+        objective, unit = power, "W"
+        scale = float(np.sum(setup.power)) or 1.0
+    else:
+        targets = [g for g in goals if g.target is not None and g.weight > 0]
+        if not targets:
+            raise ConfigError("objective = \"misfit\" needs a grid with 'target_csv' or "
+                              "'target_lux'", file=cfg.source, key="optimise.objective")
+        objective, unit = _Misfit(Objective.build(targets, setup.power).only("target")), ""
+        scale = 1.0
+    problem = DesignProblem(model, objective, constraints, objective_scale=scale)
+    x_start = jnp.asarray(params.x0)
+    start_values = np.asarray(problem.values(x_start), np.float64)
+    start_objective = float(problem.f(x_start)) * scale
+    tol, eps = ocfg.constraint_tolerance, ocfg.smoothing
+
+    runs = []
+    for x0 in _starts(params, ocfg.starts, ocfg.seed):
+        run = solve_constrained(problem, x0, lo, hi, smooth=eps, method=ocfg.method,
+                                max_steps=ocfg.max_steps, tolerance=tol)
+        if run.violation > tol:  # a local stall is not proof: look for a feasible point
+            ok, xf, _ = find_feasible(problem, [run.x, x0, hi], lo, hi,
+                                      range(len(constraints)), smooth=eps, tolerance=tol)
+            if ok:
+                run = solve_constrained(problem, xf, lo, hi, smooth=eps, method=ocfg.method,
+                                        max_steps=ocfg.max_steps, tolerance=tol)
+        runs.append(run)
+    feasible = [r for r in runs if r.violation <= tol]
+    infeasibility = None
+    if feasible:
+        best = min(feasible, key=lambda r: r.objective)
+        agreed = sum(abs(r.objective - best.objective) <= _AGREE * max(abs(best.objective),
+                                                                        1e-12) for r in feasible)
+        x_best = best.x
+    else:
+        ok, x_best, worst = find_feasible(problem, [r.x for r in runs] + [hi], lo, hi,
+                                          range(len(constraints)), smooth=eps, tolerance=tol)
+        best, agreed = min(runs, key=lambda r: r.violation), 0
+        infeasibility = explain_infeasible(problem, params.x0, lo, hi, smooth=eps,
+                                           tolerance=tol, labels=list(params.labels),
+                                           method=ocfg.method, max_steps=ocfg.max_steps,
+                                           worst=worst)
+    design = params.unflatten(np.asarray(x_best, np.float64))
+    if results.design.only_dimmers_differ(design):
+        after = results.at(design)
+    else:
+        from .._study import compute
+
+        after = compute(study, design=design, cache_dir=cache_dir)
+    light = exact_light(study, after, params)
+    table, unmet = [], []
+    for (crit, c), v0, price, act in zip(made, start_values, best.prices, best.active,
+                                         strict=True):
+        v = float(c.value(light, None))
+        margin = float(c.sense * (v - float(c.bound)) / c.scale)
+        met = margin >= -tol
+        row = dict(label=c.label, key=c.key, criterion=crit, relation=c.relation,
+                   bound=float(c.bound), unit=c.unit, start=float(v0), achieved=v,
+                   margin=margin, met=bool(met), active=bool(act) and infeasibility is None)
+        if infeasibility is None and act:
+            step = price_step(crit, float(c.bound), c.sense)
+            row["price_per_unit"] = float(price)
+            row["price_step"] = float(step)
+            row["price"] = float(price * step)
+            row["price_sentence"] = _price_sentence(c, crit, step, price * step, unit)
+        table.append(row)
+        if not met:
+            u = f" {c.unit}" if c.unit else ""
+            unmet.append(f"{c.label}: wanted {c.relation} {float(c.bound):.4g}{u}, "
+                         f"achieved {v:.4g}{u} ({c.key})")
+    if infeasibility is not None:
+        verdict = "infeasible"
+    else:
+        verdict = "met" if not unmet else "not met exactly"
+    constrained = {
+        "verdict": verdict, "objective": ocfg.objective, "unit": unit,
+        "objective_start": start_objective,
+        "objective_end": float(objective(light)) if ocfg.objective == "power" else float(
+            objective(light)),
+        "method": ocfg.method, "smoothing": eps, "tolerance": tol,
+        "violation": float(best.violation), "iterations": int(best.iterations),
+        "evaluations": int(best.evaluations),
+        "starts": {"count": len(runs), "feasible": len(feasible), "agreed": int(agreed),
+                   "objectives": [float(r.objective) for r in runs]},
+        "constraints": table,
+        "prices": [r["price_sentence"] for r in table if "price_sentence" in r],
+    }
+    if infeasibility is not None:
+        constrained["infeasibility"] = infeasibility.to_dict()
+        unmet = [f"infeasible: {s}" for s in infeasibility.to_dict()["sentences"]] + unmet
+    opt = Optimisation(
+        solver=f"constrained ({ocfg.method})", variables=tuple(ocfg.variables),
+        iterations=int(best.iterations), converged=bool(best.success),
+        objective_history=[float(v) for v in best.history], design=design,
+        start=params.start, aimed=tuple(setup.names) if setup.aims else (),
+        levelled=tuple(setup.names) if setup.levels else (),
+        before={n: g.stats for n, g in results.grids.items()},
+        after={n: g.stats for n, g in after.grids.items()},
+        targets=[dict(grid=r["label"], kind=r["criterion"], wanted=r["bound"],
+                      achieved=r["achieved"], met=r["met"]) for r in table],
+        unmet=unmet, config=cfg, constrained=constrained,
+        seconds=time.perf_counter() - t0)
+    final = dataclasses.replace(after, optimisation=opt)
+    object.__setattr__(opt, "results", final)
+    return opt
+
+
+def _price_sentence(c, crit, step, cost, unit) -> str:
+    b = float(c.bound)
+    name = c.label
+    verb = "raising" if step > 0 else "lowering"
+    u = f" {c.unit}" if c.unit else ""
+    fmt = ".2f" if crit == "u0" else ".4g"
+    cost_u = f" {unit}" if unit else ""
+    return (f"{verb} {name} from {b:{fmt}}{u} to {b + step:{fmt}}{u} costs "
+            f"{cost:.3g}{cost_u} (first order, from the Lagrange multiplier)")
+
+
+def print_constrained(record: dict, console) -> None:
+    """The constrained design's verdict, constraints, prices and any conflict (``lumijax
+    run``); an infeasible design is an answer, printed plainly (the run exits 0)."""
+    from rich.table import Table
+
+    unit = f" {record['unit']}" if record["unit"] else ""
+    console.print(f"verdict: {record['verdict']} — {record['objective']} "
+                  f"{record['objective_start']:.4g}{unit} → {record['objective_end']:.4g}{unit} "
+                  f"({record['method']}, {record['iterations']} steps; starts: "
+                  f"{record['starts']['agreed']} of {record['starts']['count']} agreed)")
+    table = Table(title="constraints (exact, at the final design)", title_justify="left")
+    for col in ("constraint", "bound", "start", "achieved", "met", "active"):
+        table.add_column(col, justify="left" if col == "constraint" else "right")
+    for r in record["constraints"]:
+        table.add_row(r["label"], f"{r['relation']} {r['bound']:.4g} {r['unit']}".rstrip(),
+                      f"{r['start']:.4g}", f"{r['achieved']:.4g}", "✓" if r["met"] else "✗",
+                      "yes" if r["active"] else "")
+    console.print(table)
+    for line in record["prices"]:
+        console.print(f"price: {line}")
+    inf = record.get("infeasibility")
+    if inf is not None:
+        console.print("[yellow]infeasible[/yellow]: no setting of the chosen variables meets "
+                      "these constraints together:")
+        for line in inf["sentences"]:
+            console.print(f"  {line}")
