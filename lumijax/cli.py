@@ -77,6 +77,11 @@ def _optimisation_table(opt, console) -> None:
                       f"{a['min']:.1f}", f"{b['u0']:.2f}", f"{a['u0']:.2f}")
     console.print(table)
     console.print("dimmers: " + ", ".join(f"{n} {v:.3f}" for n, v in opt.dimmers.items()))
+    if opt.constrained is not None:  # a constrained design: the verdict, prices, conflict
+        from .optimise import print_constrained
+
+        print_constrained(opt.constrained, console)
+        return
     for line in opt.unmet:
         console.print(f"[yellow]not met:[/yellow] {line}")
 

@@ -547,10 +547,6 @@ class OptimiseConfig(_Model):
         return v
 
 
-# after the field types it uses (_observers imports them from here)
-from ._observers import ObserverConfig  # noqa: E402
-
-
 class StudyConfig(_Model):
     """A whole study: the root of the TOML file."""
 
