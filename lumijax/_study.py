@@ -213,10 +213,25 @@ def compute(
                        "operator_cache_hit", "spectral_samples", "columns_solved")}
     if lighting.spectral is not None and lighting.spectral.sampling is not None:
         solver["wavelengths_nm"] = [float(w) for w in lighting.spectral.sampling.wavelengths_nm]
+    glare = _glare(study, lighting, out, design, shadows=shadows,
+                   rays=settings.gather_rays) if study.config.observers else None
     return Results(
         study=sc.name, grids=out, networks=networks, timing_s=timing, counts=counts,
-        solver=solver, lighting=lighting, design=design, recompute=recompute,
+        solver=solver, lighting=lighting, design=design, recompute=recompute, glare=glare,
     )
+
+
+def _glare(study: Study, lighting, grids, design, *, shadows: bool, rays: int):
+    """The observers' glare (``lumijax.glare``): what each eye sees of the luminaires, with
+    the lit solution's background; None without ``[[observers]]``."""
+    from .glare import Glare, build_glare_model, build_observers
+
+    observers = build_observers(study.config, study.scene)
+    model = build_glare_model(
+        study.scene, observers, lighting if shadows else None, rays=rays,
+        grid_lux={n: g.by_network_lux for n, g in grids.items()}, shadows=shadows,
+        source=study.config.source)
+    return Glare(model, design, observers)
 
 
 def _at_design(study: Study, design: Design, *, shadows, indirect, cache_dir,

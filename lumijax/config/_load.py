@@ -215,6 +215,9 @@ def _check_references(cfg: StudyConfig, src: Path | None, text: str) -> None:
         grid_names[g.name] = i
         check_group(f"grids[{i}].group", g.group)
     _check_optimise(cfg, fail)
+    from ._observers import check_observers  # _schema imports _observers: loaded by now
+
+    check_observers(cfg, fail)
 
 
 def _grid_size(g) -> int:

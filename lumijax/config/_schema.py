@@ -547,6 +547,10 @@ class OptimiseConfig(_Model):
         return v
 
 
+# after the field types it uses (_observers imports them from here)
+from ._observers import ObserverConfig  # noqa: E402
+
+
 class StudyConfig(_Model):
     """A whole study: the root of the TOML file."""
 
@@ -562,6 +566,7 @@ class StudyConfig(_Model):
     solver: SolverConfig = SolverConfig()
     optimise: OptimiseConfig | None = None
     compliance: ComplianceConfig | None = None
+    observers: list[ObserverConfig] = []
     _source: Path | None = PrivateAttr(None)
 
     @property

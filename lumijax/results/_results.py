@@ -173,6 +173,9 @@ class Results:
     #: ``recompute(design, override_cache_dir=None) -> Results``: the study computed again at a
     #: design, with the options these results were computed with (set by ``lumijax.compute``).
     recompute: Callable[..., Results] | None = field(default=None, repr=False)
+    #: The observers' glare (a ``lumijax.glare.Glare``, typed loosely: results sit below glare),
+    #: or None without ``[[observers]]``; ``at`` re-evaluates it at the new design.
+    glare: Any = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         design = self.design
@@ -218,7 +221,9 @@ class Results:
                 lighting = dataclasses.replace(lighting,
                                                scene=lighting.scene.with_design(design))
             return dataclasses.replace(self, design=design, lighting=lighting,
-                                       optimisation=None)
+                                       optimisation=None,
+                                       glare=None if self.glare is None else
+                                       self.glare.at(design))
         if self.recompute is None:
             raise LumijaxError("these results cannot be lit at a design that re-aims or "
                                "re-levels a luminaire: they were not made by lumijax.compute, "
@@ -241,4 +246,5 @@ class Results:
             "solver": _finite_json(self.solver, "solver"),
             **({"optimisation": _finite_json(self.optimisation.to_dict(), "optimisation")}
                if self.optimisation is not None else {}),
+            **({"glare": self.glare.to_dict()} if self.glare is not None else {}),
         }

@@ -1,0 +1,175 @@
+"""A study's glare at one design: the ratings per observer and direction, the worst direction,
+the luminaires that contribute most, and the results.json entry (docs/results.md, "glare")."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from ..errors import SolveError
+from ._model import GlareModel, GlareRatings
+from ._ratings import SOLID_ANGLE_RANGE_SR
+
+__all__ = ["Glare", "TOP_CONTRIBUTORS"]
+
+#: How many luminaires results.json names per observer as the largest contributors.
+TOP_CONTRIBUTORS = 5
+
+
+@dataclass(frozen=True, eq=False)
+class Glare:
+    """The observers' :class:`GlareModel` at a design (a :class:`lumijax.design.Design`).
+
+    ``ratings`` are the host (float64) :class:`GlareRatings` per view; ``at(design)`` is the
+    same model at another design (exact: no ray, dimmers, aims and levels alike).
+    """
+
+    model: GlareModel
+    design: Any
+    observers: tuple = ()
+
+    def at(self, design) -> Glare:
+        return dataclasses.replace(self, design=design)
+
+    @cached_property
+    def ratings(self) -> GlareRatings:
+        return GlareRatings(*(np.asarray(a, np.float64) for a in self.model(self.design)))
+
+    @cached_property
+    def _contributions(self) -> tuple[np.ndarray, np.ndarray]:
+        u, v = self.model.contributions(self.design)
+        return np.asarray(u, np.float64), np.asarray(v, np.float64)
+
+    def views_of(self, observer: int) -> np.ndarray:
+        return np.flatnonzero(np.asarray(self.model.view_observer) == observer)
+
+    def summary(self) -> list[dict[str, Any]]:
+        """One row per observer: its worst UGR, GR and TI (None where not rated) and the
+        azimuth (deg) of the worst GR direction; what ``lumijax run`` prints."""
+        out = []
+        for i, name in enumerate(self.model.observers):
+            d = self._observer(i)
+            out.append({"observer": name, "directions": len(d["directions"]),
+                        **{r: d["worst"][r]["value"] if d["worst"].get(r) else None
+                           for r in ("ugr", "gr", "ti")},
+                        "worst_gr_azimuth_deg": (d["worst"]["gr"] or {}).get("azimuth_deg")})
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """results.json's ``glare``: ``{observer: {...}}`` (docs/results.md)."""
+        out = {name: self._observer(i) for i, name in enumerate(self.model.observers)}
+        _check_finite(out, "glare")
+        return out
+
+    def _observer(self, i: int) -> dict[str, Any]:
+        r = self.ratings
+        m = self.model
+        views = self.views_of(i)
+        obs = self.observers[i] if i < len(self.observers) else None
+        ugr_terms, veil_terms = self._contributions
+        seen_omega = self._seen_solid_angles()
+        dirs = []
+        for j, v in enumerate(views):
+            flags = []
+            lb, lav = r.background_cdm2[v], r.environment_cdm2[v]
+            if not lb > 0:
+                flags.append("no_background")  # inter-reflection off: UGR undefined
+            if not r.ugr_sum[v] > 0:
+                flags.append("no_source_seen")
+            small, large = seen_omega(v)
+            if small:
+                flags.append("small_sources")
+            if large:
+                flags.append("large_sources")
+            entry = {
+                "azimuth_deg": float(m.azimuths_deg[i][j]),
+                "direction": [float(x) for x in np.asarray(m.view_direction[v])],
+                "ugr": float(r.ugr[v]) if lb > 0 else None,
+                "gr": float(r.gr[v]) if lav > 0 else None,
+                "background_cdm2": float(lb),
+                "environment_cdm2": float(lav),
+                "veiling_cdm2": float(r.veiling_cdm2[v]),
+                "flags": flags,
+            }
+            if m.has_road[i]:
+                entry["ti_percent"] = float(r.ti[v])
+                entry["road_cdm2"] = float(r.road_cdm2[v])
+            if small or large:
+                entry["outside_ugr_range"] = sorted(set(small) | set(large))[:10]
+            dirs.append(entry)
+        worst = {}
+        for rating, key in (("ugr", "ugr"), ("gr", "gr"), ("ti", "ti_percent")):
+            vals = [(d[key], j) for j, d in enumerate(dirs) if d.get(key) is not None]
+            if not vals:
+                worst[rating] = None
+                continue
+            value, j = max(vals)
+            worst[rating] = {"value": value, "direction": j,
+                             "azimuth_deg": dirs[j]["azimuth_deg"]}
+        top = {}
+        for rating, terms in (("ugr", ugr_terms), ("gr", veil_terms)):
+            w = worst.get(rating)
+            j = w["direction"] if w else 0
+            row = terms[views[j]] if len(views) else np.zeros(0)
+            total = float(row.sum())
+            order = np.argsort(-row, kind="stable")[:TOP_CONTRIBUTORS]
+            top[rating] = [{"name": m.names[q], "share": float(row[q] / total)}
+                           for q in order if total > 0 and row[q] > 0]
+        return {"eye": [] if obs is None else [float(x) for x in obs.eye],
+                "directions": dirs, "worst": worst, "top_luminaires": top}
+
+    def _seen_solid_angles(self):
+        """For a view: the names of the seen luminaires whose solid angle is outside CIE 117's
+        range (small, large)."""
+        ugr_terms, _ = self._contributions
+        omega = self._omega
+        lo, hi = SOLID_ANGLE_RANGE_SR
+        names = self.model.names
+
+        def of(v):
+            seen = ugr_terms[v] > 0
+            small = [names[q] for q in np.flatnonzero(seen & (omega[v] < lo))]
+            large = [names[q] for q in np.flatnonzero(seen & (omega[v] > hi))]
+            return small, large
+
+        return of
+
+    @cached_property
+    def _omega(self) -> np.ndarray:
+        """Solid angle (sr) of every source as each view sees it, at the design."""
+        import jax.numpy as jnp
+
+        from ..scene._frames import aim_rotation
+        from ._area import projected_area
+
+        m, d = self.model, self.design
+        obs = np.asarray(m.view_observer)
+        out = np.zeros((m.n_views, len(m.names)))
+        tilt, pan, spin = (np.radians(np.asarray(getattr(d, f), np.float64))
+                           for f in ("tilt_deg", "pan_deg", "spin_deg"))
+        for g in m.sources:
+            idx = np.asarray(g.index)
+            rot = np.asarray(g.frame) @ np.asarray(aim_rotation(tilt[idx], pan[idx], spin[idx],
+                                                                xp=np))
+            local = np.einsum("mji,omj->omi", rot, np.asarray(g.towards_eye))
+            area = np.asarray(projected_area(g.opening, jnp.asarray(local)))
+            out[:, idx] = (area * np.asarray(g.inv_d2))[obs]
+        if m.areas is not None:
+            out[:, m.n_luminaires:] = np.asarray(m.areas.solid_angle)[obs]
+        return out
+
+
+def _check_finite(value, key: str) -> None:
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_finite(v, f"{key}.{k}")
+    elif isinstance(value, list):
+        for j, v in enumerate(value):
+            _check_finite(v, f"{key}[{j}]")
+    elif isinstance(value, float) and not np.isfinite(value):
+        raise SolveError(f"{value} is not finite: the glare computation overflowed; check the "
+                         "study's magnitudes (flux_lm, multiplier)", key=f"results.json: {key}")
