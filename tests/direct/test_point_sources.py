@@ -4,19 +4,9 @@ from __future__ import annotations
 
 from functools import partial
 
+import helpers as h
 import numpy as np
 import pytest
-from helpers import (
-    box,
-    lamp,
-    material,
-    network,
-    photometry,
-    plane_grid,
-    point_grid,
-    rectangle,
-    study,
-)
 
 import lumijax
 from lumijax import load_study
@@ -29,15 +19,15 @@ ISO = 4000.0  # lm
 
 def _plane_study(write_study, **grid):
     """A 4000 lm isotropic lamp 2.5 m above a 10 × 10 m grid of 21 × 21 points at z = 0."""
-    return write_study(study(
-        photometry("iso", "isotropic", ISO), lamp("L", [0, 0, 2.5]),
-        plane_grid("g", [-5, -5, 0], [10, 0, 0], [0, 10, 0], nu=21, nv=21, **grid)))
+    return write_study(h.study(
+        h.photometry("iso", "isotropic", ISO), h.lamp("L", [0, 0, 2.5]),
+        h.plane_grid("g", [-5, -5, 0], [10, 0, 0], [0, 10, 0], nu=21, nv=21, **grid)))
 
 
 def _lamp_over(points, *parts, **lamp_keys):
     """A 1000 lm isotropic lamp at (0, 0, 2) m over a grid of ``points``, and ``parts``."""
-    return study(photometry("iso", "isotropic", 1000), *parts,
-                 lamp("L", [0, 0, 2], **lamp_keys), point_grid("g", points))
+    return h.study(h.photometry("iso", "isotropic", 1000), *parts,
+                   h.lamp("L", [0, 0, 2], **lamp_keys), h.point_grid("g", points))
 
 
 def test_isotropic_point_over_plane_is_inverse_square_cosine(write_study):
@@ -62,10 +52,10 @@ def test_vertical_receiver_uses_its_own_cosine(write_study):
 
 
 def test_dimmer_scales_exactly_and_networks_superpose(write_study):
-    path = write_study(study(
-        photometry("iso", "isotropic", 1000), network("a", 0.25), network("b", 0.5),
-        lamp("A", [0, 0, 2], "a"), lamp("B", [1, 0, 3], "b"),
-        point_grid("g", [[0, 0, 0], [1, 1, 0], [3, -1, 0]])))
+    path = write_study(h.study(
+        h.photometry("iso", "isotropic", 1000), h.network("a", 0.25), h.network("b", 0.5),
+        h.lamp("A", [0, 0, 2], "a"), h.lamp("B", [1, 0, 3], "b"),
+        h.point_grid("g", [[0, 0, 0], [1, 1, 0], [3, -1, 0]])))
     g = compute(load_study(path))["g"]
     pts = g.points
     i = 1000 / (4 * np.pi)
@@ -80,10 +70,10 @@ def test_dimmer_scales_exactly_and_networks_superpose(write_study):
 def test_shadow_of_a_box_matches_projection(write_study):
     """A point source above a cube: the floor inside the cube's projected outline is dark,
     the floor outside it gets the unobstructed closed form."""
-    path = write_study(study(
-        material("m", 0.5), photometry("iso", "isotropic", ISO),
-        box([-0.5, -0.5, 1.0], [0.5, 0.5, 2.0], "m", normals=None), lamp("L", [0, 0, 4]),
-        plane_grid("g", [-3, -3, 0], [6, 0, 0], [0, 6, 0], nu=60, nv=60)))
+    path = write_study(h.study(
+        h.material("m", 0.5), h.photometry("iso", "isotropic", ISO),
+        h.box([-0.5, -0.5, 1.0], [0.5, 0.5, 2.0], "m", normals=None), h.lamp("L", [0, 0, 4]),
+        h.plane_grid("g", [-3, -3, 0], [6, 0, 0], [0, 6, 0], nu=60, nv=60)))
     g = compute(load_study(path))["g"]
     x, y = g.points[:, 0], g.points[:, 1]
     # The outline is the projection of the box's top face (z = 2, nearest the source at z = 4)
@@ -98,8 +88,8 @@ def test_shadow_of_a_box_matches_projection(write_study):
 
 
 def test_no_shadows_option_ignores_geometry(write_study):
-    path = write_study(_lamp_over([[0, 0, 0]], material("m", 0.5),
-                                  rectangle([-1, -1, 1], [2, 0, 0], [0, 2, 0], "m")))
+    path = write_study(_lamp_over([[0, 0, 0]], h.material("m", 0.5),
+                                  h.rectangle([-1, -1, 1], [2, 0, 0], [0, 2, 0], "m")))
     study = load_study(path)
     assert compute(study)["g"].illuminance_lux[0] == 0.0
     np.testing.assert_allclose(

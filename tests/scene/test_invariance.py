@@ -16,22 +16,11 @@ from __future__ import annotations
 
 import warnings
 
+import helpers as h
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import (
-    area_lamp,
-    box,
-    lamp,
-    material,
-    network,
-    photometry,
-    plane_grid,
-    point_grid,
-    study,
-    table,
-)
 
 import lumijax
 from lumijax.direct import direct_illuminance
@@ -53,19 +42,19 @@ def _study(offset=(0.0, 0.0, 0.0), s=1.0, precision="float32") -> str:
     # row's centroids at the block's top height) is decided by float32 rounding at any
     # position; see docs/conventions.md, "Tolerances"
     site = {"group": "site"}
-    return study(
-        table("solver", target_patches=200, gather_rays=48, spectral_samples=0, cache=False,
-              precision=precision),
-        table("groups.site", translate=list(offset), scale=s),
-        material("wall", 0.6), photometry("iso", "isotropic", 1000.0 * s * s),
-        network("main", 1.0), network("panel", 0.5),
-        box([0, 0, 0], [4, 4, 3], **site),
-        box([1.0713, 0.9687, 0], [1.6291, 1.5742, 0.8317], normals="outward", **site),
-        lamp("L", [2.5, 2.3, 2.6], "main", **site),
-        area_lamp("P", [0.6, 2.9, 2.99], [0, 0.5, 0], [0.7, 0, 0], 500.0 * s * s, "panel", **site),
-        plane_grid("floor", [0.05, 0.05, 0.01], [3.9, 0, 0], [0, 3.9, 0], nu=6, nv=6, **site),
-        point_grid("wall", [[3.99, 0.7, 1.0], [3.99, 2.1, 2.2], [3.99, 3.3, 0.4]], [-1, 0, 0],
-                   **site))
+    return h.study(
+        h.table("solver", target_patches=200, gather_rays=48, spectral_samples=0, cache=False,
+                precision=precision),
+        h.table("groups.site", translate=list(offset), scale=s),
+        h.material("wall", 0.6), h.photometry("iso", "isotropic", 1000.0 * s * s),
+        h.network("main", 1.0), h.network("panel", 0.5),
+        h.box([0, 0, 0], [4, 4, 3], **site),
+        h.box([1.0713, 0.9687, 0], [1.6291, 1.5742, 0.8317], normals="outward", **site),
+        h.lamp("L", [2.5, 2.3, 2.6], "main", **site),
+        h.area_lamp("P", [0.6, 2.9, 2.99], [0, 0.5, 0], [0.7, 0, 0], 500.0 * s * s, "panel", **site),
+        h.plane_grid("floor", [0.05, 0.05, 0.01], [3.9, 0, 0], [0, 3.9, 0], nu=6, nv=6, **site),
+        h.point_grid("wall", [[3.99, 0.7, 1.0], [3.99, 2.1, 2.2], [3.99, 3.3, 0.4]], [-1, 0, 0],
+                     **site))
 
 
 @pytest.fixture
