@@ -1,10 +1,11 @@
 """``lumijax`` command line: a thin layer over the Python API.
 
-    lumijax run CONFIG [--out DIR] [--no-images] [--no-shadows] [--no-optimise] [--no-report]
+    lumijax run CONFIG [--out DIR] [--no-images] [--quick] [--no-shadows] [--no-optimise]
+                       [--no-report]
     lumijax check CONFIG [--json]
     lumijax report CONFIG [--out DIR] [--no-pictures] [--pdf]
     lumijax view CONFIG [--web] [--host HOST] [--port PORT] [--camera NAME]
-    lumijax demo [--out DIR] [--no-report]
+    lumijax demo [--out DIR] [--no-report] [--no-images] [--quick]
 
 Errors from bad input are printed as one line naming the file and key, without a traceback, and
 the exit status is 1 (2 for a bad command line).
@@ -87,7 +88,8 @@ def _optimisation_table(opt, console) -> None:
 
 
 def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
-         cache_dir: Path | None = None, optimise: bool = True, report: bool = True) -> int:
+         cache_dir: Path | None = None, optimise: bool = True, report: bool = True,
+         quick: bool = False) -> int:
     from ._study import compute, load_study
     from .report import write_results
     from .report._write import ResultSet
@@ -97,6 +99,8 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
     # compute), and every file, the report included, is staged and swapped in as one set.
     with ResultSet(out) as rs:
         study = load_study(config)
+        if quick:
+            study = _quick(study)
         progress, update = _progress_bar(console, "lighting")
         with progress:
             results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir)
@@ -122,6 +126,17 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         f"({n:,} shadow rays)"
     )
     return 0
+
+
+def _quick(study):
+    """The study with the photometric solve (``[solver] spectral_samples = 0``): lux as before
+    for grey rooms, no colour (XYZ, CCT), and one wavelength instead of 16 to solve and gather
+    (docs/radiosity.md, "Distinct columns"; what ``--quick`` trades: docs/results.md)."""
+    from dataclasses import replace
+
+    cfg = study.config
+    solver = cfg.solver.model_copy(update={"spectral_samples": 0})
+    return replace(study, config=cfg.model_copy(update={"solver": solver}))
 
 
 def _report(config: Path, out: Path, *, pictures: bool, console, pdf: bool = False) -> int:
@@ -253,7 +268,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("config", type=Path)
     run.add_argument("--out", type=Path, default=None, help="output folder (default: CONFIG's "
                      "name + '-out' beside it)")
-    run.add_argument("--no-images", action="store_true", help="skip the false-colour images")
+    run.add_argument("--no-images", action="store_true",
+                     help="numbers only: no false-colour images, no pictures in report.html")
+    run.add_argument("--quick", action="store_true",
+                     help="the iterate loop: --no-images --no-report and the photometric solve "
+                     "(lux only, no colour; docs/results.md)")
     run.add_argument("--no-shadows", action="store_true", help="ignore occlusion (photometry only)")
     run.add_argument("--no-optimise", action="store_true",
                      help="skip the [optimise] step of the config (docs/optimise.md)")
@@ -279,6 +298,8 @@ def _parser() -> argparse.ArgumentParser:
     demo = sub.add_parser("demo", help="run the bundled default study")
     demo.add_argument("--out", type=Path, default=Path("lumijax-demo"))
     demo.add_argument("--no-report", action="store_true", help="do not write report.html")
+    demo.add_argument("--no-images", action="store_true", help="numbers only (as run)")
+    demo.add_argument("--quick", action="store_true", help="as run --quick")
     return p
 
 
@@ -296,15 +317,19 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.showwarning = show_warning
     warnings.simplefilter("default", LumijaxWarning)
+    from ._jit_cache import enable_compilation_cache
+
+    enable_compilation_cache()  # before the first compilation; warns, never raises
     try:
         if args.command == "check":
             return _check(args.config, as_json=args.json, console=console)
         if args.command == "demo":
             console.print(f"lumijax demo: {default_study_path()}")
             # the bundled study may sit in a read-only install: cache beside the outputs
-            return _run(default_study_path(), args.out, images=True, shadows=True,
+            return _run(default_study_path(), args.out,
+                        images=not (args.no_images or args.quick), shadows=True,
                         console=console, cache_dir=args.out / ".lumijax-cache",
-                        report=not args.no_report)
+                        report=not (args.no_report or args.quick), quick=args.quick)
         if args.command == "view":
             return _view(args.config, web=args.web, host=args.host, port=args.port,
                          camera=args.camera, console=console)
@@ -313,8 +338,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "report":
             return _report(args.config, out, pictures=not args.no_pictures, console=console,
                            pdf=args.pdf)
-        return _run(args.config, out, images=not args.no_images, shadows=not args.no_shadows,
-                    optimise=not args.no_optimise, report=not args.no_report, console=console)
+        return _run(args.config, out, images=not (args.no_images or args.quick),
+                    shadows=not args.no_shadows, optimise=not args.no_optimise,
+                    report=not (args.no_report or args.quick), quick=args.quick,
+                    console=console)
     except LumijaxError as e:
         print(f"lumijax: error: {e}", file=sys.stderr)
         return 1

@@ -7,6 +7,10 @@ exactly its own room: an independent fact the pictures must show.
 
 from __future__ import annotations
 
+import atexit
+import os
+import shutil
+import tempfile
 import textwrap
 import warnings
 from pathlib import Path
@@ -16,6 +20,11 @@ import pytest
 from helpers import box, box_room, lamp, material, network, photometry, plane_grid, study, table
 
 jax.config.update("jax_enable_x64", True)
+# JAX's compilation cache (lumijax/_jit_cache.py) in a temporary folder, never the user's; the
+# process that makes it (xdist's controller, whose workers inherit it) removes it at exit
+if "LUMIJAX_JAX_CACHE" not in os.environ:
+    os.environ["LUMIJAX_JAX_CACHE"] = tempfile.mkdtemp(prefix="lumijax-test-jax-cache-")
+    atexit.register(shutil.rmtree, os.environ["LUMIJAX_JAX_CACHE"], ignore_errors=True)
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
