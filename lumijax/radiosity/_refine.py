@@ -15,7 +15,6 @@ from collections.abc import Callable
 import equinox as eqx
 import numpy as np
 from jaxtyping import Float, Int
-from scipy.spatial import cKDTree
 
 from ..errors import GeometryError
 from ._patches import Patches, _fields, subdivide_triangles
@@ -130,6 +129,8 @@ def edge_neighbours(
     # centroids are at most (2/3)(d_i + d_j) apart. Refined meshes mix sizes, so candidates are
     # looked up per pair of size classes (factors of two) with that class pair's radius, not the
     # largest patch's, which would make every small patch query hundreds of its peers.
+    from scipy.spatial import cKDTree  # here: scipy.spatial costs ~0.3 s of every import
+
     size = np.floor(np.log2(d / d.min())).astype(np.int64)
     ii, jj = [], []
     for b in np.unique(size):
