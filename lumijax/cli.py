@@ -87,6 +87,23 @@ def _optimisation_table(opt, console) -> None:
         console.print(f"[yellow]not met:[/yellow] {line}")
 
 
+def _glare_table(glare, console) -> None:
+    """Per observer: the worst UGR, GR and TI over its directions (— where not rated)."""
+    from rich.table import Table
+
+    table = Table(title="glare per observer (worst direction)", title_justify="left")
+    for col in ("observer", "directions", "UGR", "GR", "worst GR at (deg)", "TI (%)"):
+        table.add_column(col, justify="left" if col == "observer" else "right")
+
+    def fmt(v, spec=".1f"):
+        return "—" if v is None else format(v, spec)
+
+    for row in glare.summary():
+        table.add_row(row["observer"], str(row["directions"]), fmt(row["ugr"]),
+                      fmt(row["gr"]), fmt(row["worst_gr_azimuth_deg"], "g"), fmt(row["ti"]))
+    console.print(table)
+
+
 def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
          cache_dir: Path | None = None, optimise: bool = True, report: bool = True,
          quick: bool = False) -> int:
@@ -112,6 +129,8 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         _summary_table(results, console)
         if results.optimisation is not None:
             _optimisation_table(results.optimisation, console)
+        if results.glare is not None:  # the observers' ratings (docs/glare.md)
+            _glare_table(results.glare, console)
         if report:
             from .report import write_report
 

@@ -354,12 +354,12 @@ def _area_sources(scene, eyes, view_obs, forward, caster, net_index):
 def _background(lighting, eyes, forward, caster, rays, k):
     """``(L_b, L_av)`` per view and network (cd/m²) from the coarse patches' radiosity."""
     n = len(eyes)
-    if lighting is None or lighting.patches is None or caster is None or not n:
+    if lighting is None or lighting.coarse.patches is None or caster is None or not n:
         return np.zeros((n, k)), np.zeros((n, k))
     from ..radiosity import build_gather
 
-    gather = build_gather(eyes, forward, lighting.patches, caster, rays=rays, seed=7)
-    e_ind = np.asarray(gather(jnp.asarray(np.asarray(lighting.radiosity, np.float64).T)),
+    gather = build_gather(eyes, forward, lighting.coarse.patches, caster, rays=rays, seed=7)
+    e_ind = np.asarray(gather(jnp.asarray(np.asarray(lighting.coarse.radiosity, np.float64).T)),
                        np.float64)  # (views, net) lx
     cover = gather.coverage[:, None]
     background = e_ind / math.pi

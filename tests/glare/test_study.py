@@ -1,0 +1,127 @@
+"""A lit room with an observer, computed once: the background from the radiosity against the
+integrating-sphere estimate and the grids' own gather, a luminaire hidden by a column, the
+superposition of Results.at, results.json and the command line's table."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+import lumijax
+from lumijax.photometry import LuminousOpening, isotropic, write_ies
+
+I0 = 1000.0  # cd, isotropic
+RHO = 0.5
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    d = tmp_path_factory.mktemp("glare_room")
+    write_ies(dataclasses.replace(isotropic(4 * math.pi * I0),
+                                  opening=LuminousOpening(0.2, 0.2, 0.0, "rectangle")),
+              d / "sq.ies")
+    (d / "study.toml").write_text(f"""
+[solver]
+target_patches = 600
+gather_rays = 8192
+[materials.wall]
+reflectance = {RHO}
+[photometry.sq]
+file = "sq.ies"
+[[geometry]]
+kind = "box"
+min = [0, 0, 0]
+max = [6, 4, 3]
+normals = "inward"
+material = "wall"
+[[geometry]]
+name = "column"
+kind = "box"
+min = [2, 1.5, 0]
+max = [2.5, 2.5, 2]
+material = "wall"
+[[luminaires]]
+name = "A"
+photometry = "sq"
+position = [3, 2, 2.8]
+network = "a"
+[[luminaires]]
+name = "B"
+photometry = "sq"
+position = [5.5, 2, 1.6]
+network = "b"
+[[grids]]
+name = "eye"
+kind = "points"
+points = [[0.5, 2, 1.2]]
+normals = [1, 0, 0]
+[[observers]]
+name = "desk"
+position = [0.5, 2, 1.2]
+direction = [1, 0, 0]
+fan = {{ azimuths_deg = [0, 180] }}
+""")
+    study = lumijax.load_study(d / "study.toml")
+    return lumijax.compute(study, cache_dir=d / "cache")
+
+
+def test_background_is_the_inter_reflected_light_at_the_eye(results):
+    g = results.glare
+    lb = g.ratings.background_cdm2[0]
+    # the grids' gather at the eye, on the plane across the line of sight (other rays)
+    grid = results.grids["eye"]
+    indirect = float(grid.illuminance_lux[0] - grid.at_dimmers_direct(grid.dimmers)[0])
+    assert lb * math.pi == pytest.approx(indirect, rel=0.05)
+    # integrating sphere: E_ind = ρ Φ / (A (1 − ρ)), the room's mean inter-reflected light
+    area = 2 * (6 * 4 + 6 * 3 + 4 * 3) + 4 * (0.5 * 2) + 0.5 * 1  # room + column
+    phi = 2 * 4 * math.pi * I0
+    assert lb == pytest.approx(RHO * phi / (area * (1 - RHO)) / math.pi, rel=0.25)
+    # a closed room: the eye sees surfaces everywhere, so L_av = L_b
+    assert g.ratings.environment_cdm2[0] == pytest.approx(lb, rel=1e-6)
+
+
+def test_a_luminaire_behind_the_column_does_not_glare(results):
+    ugr_terms, veil = results.glare._contributions
+    names = results.glare.model.names
+    assert ugr_terms[0, names.index("A")] > 0 and veil[0, names.index("A")] > 0
+    assert ugr_terms[0, names.index("B")] == 0 and veil[0, names.index("B")] == 0
+    top = results.glare.to_dict()["desk"]["top_luminaires"]["ugr"]
+    assert [t["name"] for t in top] == ["A"] and top[0]["share"] == pytest.approx(1.0)
+
+
+def test_results_at_new_dimmers_superposes(results):
+    """Dimming every network by α scales L by α and L_b by α: UGR changes by 8 log10 α."""
+    before = results.glare.ratings.ugr[0]
+    after = results.at(results.design.replace(dimmers=[0.25, 0.25])).glare.ratings.ugr[0]
+    assert after - before == pytest.approx(8 * math.log10(0.25), abs=0.02)
+
+
+def test_results_json_and_the_run_table(results):
+    from rich.console import Console
+
+    from lumijax.cli import _glare_table
+
+    data = json.loads(json.dumps(results.to_dict()))  # JSON-clean (no NaN)
+    desk = data["glare"]["desk"]
+    assert len(desk["directions"]) == 2
+    looking_away = desk["directions"][1]
+    assert looking_away["azimuth_deg"] == 180 and "no_source_seen" in looking_away["flags"]
+    assert desk["worst"]["ugr"]["direction"] == 0
+    assert desk["eye"] == [0.5, 2.0, 1.2]
+    console = Console(record=True, width=120)
+    _glare_table(results.glare, console)
+    text = console.export_text()
+    assert "desk" in text and f"{desk['worst']['ugr']['value']:.1f}" in text
+
+
+def test_unshadowed_compute_has_no_background_and_writes_null(results):
+    study = lumijax.load_study(results.lighting.scene.source)
+    dry = lumijax.compute(study, shadows=False)
+    desk = dry.glare.to_dict()["desk"]["directions"][0]
+    assert desk["ugr"] is None and "no_background" in desk["flags"]
+    names = dry.glare.model.names
+    assert np.asarray(dry.glare._contributions[0])[0, names.index("B")] > 0  # nothing hides
