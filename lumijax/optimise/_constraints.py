@@ -38,7 +38,12 @@ __all__ = ["DesignLight", "AbstractConstraint", "GridAverage", "GridMinimum", "G
            "FunctionConstraint", "PowerModel", "soft_max", "soft_min", "reference"]
 
 
-def soft_max(v: Float[Array, " n"], eps: float | None) -> Float[Array, ""]:
+#: The aggregation's ε: a number, a traced scalar (one compilation for every ε), or None for
+#: the exact criterion.
+Smooth = float | Float[Array, ""] | None
+
+
+def soft_max(v: Float[Array, " n"], eps: Smooth) -> Float[Array, ""]:
     """``max(v) ≤ soft_max(v, ε) ≤ max(v) + ε``; ``eps=None`` is the exact maximum."""
     if eps is None or v.size == 1:
         return jnp.max(v)
@@ -48,7 +53,7 @@ def soft_max(v: Float[Array, " n"], eps: float | None) -> Float[Array, ""]:
     return m + t * jnp.log(jnp.sum(jnp.exp((v - m) / t)))
 
 
-def soft_min(v: Float[Array, " n"], eps: float | None) -> Float[Array, ""]:
+def soft_min(v: Float[Array, " n"], eps: Smooth) -> Float[Array, ""]:
     """``min(v) − ε ≤ soft_min(v, ε) ≤ min(v)``; ``eps=None`` is the exact minimum."""
     return -soft_max(-v, eps)
 
@@ -101,7 +106,7 @@ class AbstractConstraint(eqx.Module):
     bound: eqx.AbstractVar[Float[Array, ""]]
 
     @abc.abstractmethod
-    def value(self, light: DesignLight, smooth: float | None) -> Float[Array, ""]:
+    def value(self, light: DesignLight, smooth: Smooth) -> Float[Array, ""]:
         """The criterion (natural units); ``smooth`` the aggregation's ε, None exact."""
 
     #: The constraint's reference level (natural units): what the margin is divided by and
@@ -113,7 +118,7 @@ class AbstractConstraint(eqx.Module):
     def scale(self) -> float:
         return self.ref
 
-    def margin(self, light: DesignLight, smooth: float | None) -> Float[Array, ""]:
+    def margin(self, light: DesignLight, smooth: Smooth) -> Float[Array, ""]:
         """``sense · (value − bound) / scale``: ≥ 0 when met, dimensionless."""
         return self.sense * (self.value(light, smooth) - self.bound) / self.scale
 

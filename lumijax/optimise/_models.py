@@ -173,10 +173,10 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     pts = np.asarray(lighting.points, np.float64)
     nrm = np.asarray(lighting.normals, np.float64)
     nrm = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
-    has_patches = lighting.patches is not None and indirect
+    has_patches = lighting.coarse.patches is not None and indirect
     if has_patches:
-        rcv = np.concatenate([pts, lighting.patches.centroid])
-        rcv_n = np.concatenate([nrm, lighting.patches.normal])
+        rcv = np.concatenate([pts, lighting.coarse.patches.centroid])
+        rcv_n = np.concatenate([nrm, lighting.coarse.patches.normal])
     else:
         rcv, rcv_n = pts, nrm
     if pair_dtype is None:
@@ -214,13 +214,13 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
         start += np.bincount(flat, weights=e, minlength=start.size).reshape(start.shape)
     base = lighting.point_total - start[:, :n_pts]
     fields = {"base": f(base.astype(dtype))}
-    if lighting.patches is not None and lighting.radiosity.size:
-        fields["base_radiosity"] = f(np.asarray(lighting.radiosity, dtype))
+    if lighting.coarse.patches is not None and lighting.coarse.radiosity.size:
+        fields["base_radiosity"] = f(np.asarray(lighting.coarse.radiosity, dtype))
     if has_patches:
-        g = lighting.gather
+        g = lighting.coarse.gather
         fields.update(
             start_patch=f(start[:, n_pts:].astype(dtype)), transport=lighting.transport,
-            rho=f(np.asarray(lighting.rho, dtype)), gather_point=f(g.point),
+            rho=f(np.asarray(lighting.coarse.rho, dtype)), gather_point=f(g.point),
             gather_patch=f(g.patch), gather_weight=f(np.asarray(g.weight, dtype)),
         )
     return eqx.tree_at(lambda m: [getattr(m, n) for n in fields], model, list(fields.values()),

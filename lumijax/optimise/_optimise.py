@@ -282,8 +282,8 @@ def _setup(study, results, ocfg) -> _Setup:
             indirect=ocfg.indirect,
         )
     else:
-        rad = None if lighting.patches is None or not lighting.radiosity.size else (
-            jnp.asarray(lighting.radiosity, jnp.float64))
+        rad = None if lighting.coarse.patches is None or not lighting.coarse.radiosity.size else (
+            jnp.asarray(lighting.coarse.radiosity, jnp.float64))
         model = DimmerLight(jnp.asarray(lighting.point_total, jnp.float64), rad)
 
     return _Setup(params, model, variable, [sc.luminaires[i].name for i in variable],
@@ -344,9 +344,9 @@ def _assess(goals, results, ocfg, dimmers) -> tuple[list[dict], list[str]]:
                 f"{q}: wanted luminance ≤ {g.max_luminance_cdm2:.4g} cd/m², best achievable "
                 f"{lmax:.4g} cd/m² (over by {100 * (lmax / g.max_luminance_cdm2 - 1):.0f} %)")
     lighting = results.lighting
-    if ocfg.max_luminance_cdm2 is not None and lighting is not None and lighting.radiosity.size:
+    if ocfg.max_luminance_cdm2 is not None and lighting is not None and lighting.coarse.radiosity.size:
         alpha = np.asarray(results.design.dimmers)
-        lmax = float(np.max(alpha @ lighting.radiosity)) / np.pi
+        lmax = float(np.max(alpha @ lighting.coarse.radiosity)) / np.pi
         add("patches", "max_luminance_cdm2", ocfg.max_luminance_cdm2, lmax,
             lmax <= ocfg.max_luminance_cdm2 * (1 + _MET),
             f"surfaces: wanted luminance ≤ {ocfg.max_luminance_cdm2:.4g} cd/m², brightest patch "

@@ -213,8 +213,8 @@ def exact_light(study, results, params) -> DesignLight:
     alpha = np.asarray(results.design.dimmers, np.float64)
     lighting = results.lighting
     b = None
-    if lighting is not None and lighting.patches is not None and lighting.radiosity.size:
-        b = jnp.asarray(alpha @ np.asarray(lighting.radiosity, np.float64))
+    if lighting is not None and lighting.coarse.patches is not None and lighting.coarse.radiosity.size:
+        b = jnp.asarray(alpha @ np.asarray(lighting.coarse.radiosity, np.float64))
     return DesignLight(jnp.asarray(e), b, jnp.asarray(alpha),
                        jnp.asarray(params.flatten(results.design)))
 
@@ -243,7 +243,7 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
                           "(dimmer_min = 1, or aim ranges of [0, 0])", file=cfg.source,
                           key="optimise.variables")
     lighting = results.lighting
-    has_patches = lighting.patches is not None and lighting.radiosity.size > 0
+    has_patches = lighting.coarse.patches is not None and lighting.coarse.radiosity.size > 0
     power = _power_model(setup, sc)
     made = build_constraints(study, ocfg, goals, power, has_patches=has_patches)
     constraints = tuple(c for _, c in made)
