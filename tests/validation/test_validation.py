@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import textwrap
 
+import helpers as h
 import numpy as np
 import pytest
 
@@ -25,8 +26,9 @@ def _points(n, radius, centre=(0.0, 0.0, 0.0), seed=3):
     return p, nrm
 
 
-def _toml(a):
-    return "[" + ", ".join("[" + ", ".join(f"{v:.6f}" for v in r) + "]" for r in a) + "]"
+def _rounded(a):
+    """Coordinates to the µm (6 decimals), as the study files carry them."""
+    return [[round(float(v), 6) for v in r] for r in a]
 
 
 def _area_mean(v, area):
@@ -92,53 +94,23 @@ def test_integrating_sphere(shared_dir, rho):
     np.testing.assert_allclose(indirect, rho * ref, rtol=0.03)
 
 
-CUBE = """
-[materials.wall]
-reflectance = {rho}
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [4, 4, 4]
-normals = "inward"
-material = "wall"
-{sources}
-[[grids]]
-name = "inside"
-kind = "points"
-points = {points}
-normals = {normals}
-[solver]
-patch_size = 0.8
-gather_rays = 256
-"""
+def _cube(rho, sources, points, normals):
+    """The 4 × 4 × 4 m room of reflectance ``rho`` with ``sources`` and an inside points grid."""
+    return h.study(h.material("wall", rho), h.box([0, 0, 0], [4, 4, 4]), *sources,
+                   h.point_grid("inside", points, normals),
+                   h.table("solver", patch_size=0.8, gather_rays=256))
 
 
 @pytest.mark.parametrize("rho", [0.2, 0.5, 0.8])
 def test_cube_flux_balance(shared_dir, rho):
     """4 × 4 × 4 m room (CIE 171 TC 5.8 geometry), any source: the area-weighted mean total
     irradiance is Φ/(S(1−ρ)) exactly (reference §9.1)."""
-    sources = f"""
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {FLUX}
-        [photometry.down]
-        kind = "lambertian"
-        flux_lm = {FLUX}
-        [[luminaires]]
-        name = "centre"
-        photometry = "iso"
-        position = [2, 2, 2]
-        network = "iso"
-        [[luminaires]]
-        name = "tilted"
-        photometry = "down"
-        position = [1.0, 2.7, 3.5]
-        aim = {{ tilt = 35, pan = 20 }}
-        network = "lambertian"
-    """
+    sources = [h.photometry("iso", "isotropic", FLUX), h.photometry("down", "lambertian", FLUX),
+               h.lamp("centre", [2, 2, 2], "iso"),
+               h.lamp("tilted", [1.0, 2.7, 3.5], "lambertian", "down",
+                      aim={"tilt": 35, "pan": 20})]
     path = _write(shared_dir("cube"), f"flux{rho}",
-                  CUBE.format(rho=rho, sources=sources, points="[[2, 2, 1]]",
-                              normals="[[0, 0, 1]]"))
+                  _cube(rho, sources, [[2, 2, 1]], [[0, 0, 1]]))
     sol = lumijax.compute(lumijax.load_study(path)).lighting
     e = sol.patch_illuminance()
     ref = FLUX / (96.0 * (1 - rho))
@@ -159,19 +131,10 @@ def test_cube_furnace(shared_dir, rho):
         ([0, eps, 0], [0, 0, c], [c, 0, 0]),
         ([0, c - eps, 0], [c, 0, 0], [0, 0, c]),
     ]
-    sources = "".join(f"""
-        [[luminaires]]
-        kind = "area"
-        name = "E{i}"
-        origin = {o}
-        u = {u}
-        v = {v}
-        flux_lm = {m * c * c}
-        network = "all"
-    """ for i, (o, u, v) in enumerate(faces))
+    sources = [h.area_lamp(f"E{i}", o, u, v, m * c * c, "all") for i, (o, u, v) in enumerate(faces)]
     pts, nrm = _points(6, 1.2, centre=(2, 2, 2))
     path = _write(shared_dir("cube"), f"furnace{rho}",
-                  CUBE.format(rho=rho, sources=sources, points=_toml(pts), normals=_toml(nrm)))
+                  _cube(rho, sources, _rounded(pts), _rounded(nrm)))
     res = lumijax.compute(lumijax.load_study(path))
     sol = res.lighting
     ref = m / (1 - rho)
@@ -187,40 +150,13 @@ def test_radiance_side_by_side(write_study, tmp_path):
     sphere); with inter-reflection the means within 5 % (loose: coarse settings on both)."""
     pr = pytest.importorskip("pyradiance")
     rho, flux, lamp = 0.5, 5000.0, (2.2, 2.0, 2.5)
-    path = write_study(f"""
-        [materials.grey]
-        reflectance = {rho}
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {flux}
-        [[geometry]]
-        kind = "box"
-        min = [0, 0, 0]
-        max = [5, 4, 3]
-        normals = "inward"
-        material = "grey"
-        [[geometry]]
-        kind = "box"
-        min = [1.6, 1.2, 0.7]
-        max = [3.4, 2.4, 0.75]
-        material = "grey"
-        [[luminaires]]
-        name = "lamp"
-        photometry = "iso"
-        position = {list(lamp)}
-        network = "n"
-        [[grids]]
-        name = "wp"
-        kind = "plane"
-        origin = [0.5, 0.5, 0.8]
-        u = [4, 0, 0]
-        v = [0, 3, 0]
-        nu = 4
-        nv = 3
-        [solver]
-        patch_size = 0.6
-        gather_rays = 256
-    """)
+    path = write_study(h.study(
+        h.material("grey", rho), h.photometry("iso", "isotropic", flux),
+        h.box([0, 0, 0], [5, 4, 3], "grey"),
+        h.box([1.6, 1.2, 0.7], [3.4, 2.4, 0.75], "grey", normals=None),
+        h.lamp("lamp", list(lamp)),
+        h.plane_grid("wp", [0.5, 0.5, 0.8], [4, 0, 0], [0, 3, 0], nu=4, nv=3),
+        h.table("solver", patch_size=0.6, gather_rays=256)))
     study = lumijax.load_study(path)
     g = lumijax.compute(study).grids["wp"]
     direct = g.at_dimmers_direct(g.dimmers)
