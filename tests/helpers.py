@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 from beartype import BeartypeConf, beartype
 
-__all__ = ["area_lamp", "box", "box_room", "central_difference", "lamp", "material", "network",
+__all__ = ["area_lamp", "box", "box_room", "central_difference", "lamp", "material", "mesh", "network",
            "photometry", "plane_grid", "point_grid", "rectangle", "study", "table", "toml_value",
            "typechecker"]
 
@@ -120,6 +120,11 @@ def rectangle(origin, u, v, material: str = "wall", **keys) -> str:
     """A one-sided rectangle ``origin + s u + t v`` (m), facing ``u × v``."""
     return table("[[geometry]]", kind="rectangle", origin=origin, u=u, v=v, material=material,
                  **keys)
+
+
+def mesh(file, material: str = "wall", **keys) -> str:
+    """A mesh geometry read from ``file`` (any format trimesh reads)."""
+    return table("[[geometry]]", kind="mesh", file=file, material=material, **keys)
 
 
 def lamp(name: str, position, network: str = "n", photometry: str = "iso", **keys) -> str:
