@@ -401,6 +401,7 @@ def study_toml(c: Courtyard, files: dict[str, str], generator_args: str) -> str:
 
     out += _grids(c)
     out += _cameras(c)
+    out += _observers(c)
     out += [
         "", "[solver]",
         f"target_patches = {c.target_patches}",
@@ -425,6 +426,26 @@ def _cameras(c: Courtyard) -> list[str]:
     for name, kind in (("court-view", "realistic"), ("court-luminance", "falsecolour")):
         out += [f"[cameras.{name}]", f"position = {eye}", f"target = {corner}",
                 "fov_deg = 62", f'kind = "{kind}"']
+    return out
+
+
+def _observers(c: Courtyard) -> list[str]:
+    """Visitors on each entry path looking into the court (EN 12464-2's GR observers: eye at
+    1.6 m, the line of sight 2° below the horizontal, a fan every 45°), at the path's start
+    and half-way in; docs/glare.md."""
+    L = c.side
+    out = ["", "# --- observers: visitors walking in along the entry paths (glare, GR)"]
+    for f in c.facades:
+        rot, (cx, cy) = _FACADE_FRAME[f]
+        a = math.radians(rot)
+        R = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        d = R @ np.array([0.0, 1.0])
+        for label, y in (("entry", 2.0), ("halfway", L / 4)):
+            p = np.array([cx * L, cy * L]) + R @ np.array([L / 2, y])
+            out += ["[[observers]]", f'name = "{f}-path-{label}"',
+                    f"position = [{p[0]:.3f}, {p[1]:.3f}, 1.6]",
+                    f"direction = [{d[0]:.4f}, {d[1]:.4f}, {-math.tan(math.radians(2)):.4f}]",
+                    "fan = { step_deg = 45 }"]
     return out
 
 
