@@ -18,6 +18,7 @@ from .errors import (
     SolveError as SolveError,
     SpectrumError as SpectrumError,
 )
+from .glare import Glare as Glare, Observer as Observer
 from .optimise import Optimisation as Optimisation, optimise as optimise
 from .report import write_results as write_results
 from .results import GridResult as GridResult, Results as Results
