@@ -193,6 +193,8 @@ def compute(
             target_lux=g.target_lux, direct_by_network_lux=lighting.point_direct[:, sl],
             xyz_by_network=None if lighting.point_xyz is None else lighting.point_xyz[:, :, sl],
         )
+    if any(g.kind == "sensor" for g in study.config.grids):  # docs/compliance.md
+        out = _sensor_results(study, lighting, out, shadows)
     flux = sc.network_flux_lm()
     networks = {
         n.name: {
@@ -215,10 +217,15 @@ def compute(
         solver["wavelengths_nm"] = [float(w) for w in lighting.spectral.sampling.wavelengths_nm]
     glare = _glare(study, lighting, out, design, shadows=shadows,
                    rays=settings.gather_rays) if study.config.observers else None
-    return Results(
+    results = Results(
         study=sc.name, grids=out, networks=networks, timing_s=timing, counts=counts,
         solver=solver, lighting=lighting, design=design, recompute=recompute, glare=glare,
     )
+    if study.config.compliance is None:
+        return results
+    from .compliance import evaluate_compliance
+
+    return replace(results, compliance=evaluate_compliance(study, results))
 
 
 def _glare(study: Study, lighting, grids, design, *, shadows: bool, rays: int):
@@ -232,6 +239,18 @@ def _glare(study: Study, lighting, grids, design, *, shadows: bool, rays: int):
         grid_lux={n: g.by_network_lux for n, g in grids.items()}, shadows=shadows,
         source=study.config.source)
     return Glare(model, design, observers)
+
+
+def _sensor_results(study: Study, lighting, grids: dict, shadows: bool) -> dict:
+    """The sensor grids' results with their sensors' response (cylindrical, ...): direct and
+    inter-reflected light computed again by ``lumijax.compliance`` (no XYZ for them)."""
+    from .compliance import sensor_grids
+
+    sensors = sensor_grids(study, lighting, shadows=shadows)
+    return {n: g if n not in sensors else replace(
+        g, by_network_lux=np.asarray(sensors[n].by_network, np.float64),
+        direct_by_network_lux=np.asarray(sensors[n].direct, np.float64), xyz_by_network=None)
+        for n, g in grids.items()}
 
 
 def _at_design(study: Study, design: Design, *, shadows, indirect, cache_dir,

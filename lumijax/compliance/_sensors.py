@@ -52,10 +52,10 @@ def sensor_light(solution, points: Float[np.ndarray, "points 3"], response: Sens
     direct = direct + _area_sources(scene, points, response, shadows)
     k = len(scene.networks)
     indirect = np.zeros((k, len(points)))
-    patches = solution.patches
+    patches = solution.coarse.patches
     if patches is not None and patches.n and len(points):
         gather = build_sensor_gather(points, response, patches, scene.raycaster, rays=rays)
-        indirect = np.asarray(gather(jnp.asarray(np.asarray(solution.radiosity).T)),
+        indirect = np.asarray(gather(jnp.asarray(np.asarray(solution.coarse.radiosity).T)),
                               np.float64).T
     return SensorLight(jnp.asarray(direct), jnp.asarray(indirect))
 

@@ -187,17 +187,20 @@ class Compliance:
 
     def table(self) -> str:
         """The verdict as a fixed-width text table (the command line prints it)."""
-        head = f"{'standard':<12} {'area':<14} {'criterion':<22} {'value':>10} " \
-               f"{'limit':>12} {'result':<12}"
+        head = f"{'standard':<12} {'area':<20} {'criterion':<22} {'value':>10} " \
+               f"{'limit':>16} {'result':<12}"
         lines = [head, "-" * len(head)]
         for r in self.rows:
             crit = r["quantity"] + (f" {r['when']}" if r["when"] else "")
             lim = "—" if r["limit"] is None else (
                 ("≥ " if r["sense"] == "min" else "≤ ") + f"{r['limit']:.4g} {r['unit']}")
             val = "—" if r["value"] is None else f"{r['value']:.4g}"
-            lines.append(f"{r['standard']:<12} {r['area']:<14} {crit:<22} {val:>10} "
-                         f"{lim:>12} {r['status']:<12}")
-        lines.append("compliant" if self.compliant else "NOT COMPLIANT: a criterion fails")
+            lines.append(f"{r['standard']:<12} {r['area']:<20} {crit:<22} {val:>10} "
+                         f"{lim:>16} {r['status']:<12}")
+        failed = [f"{r['area']}.{r['quantity']}" + (f" {r['when']}" if r["when"] else "")
+                  for r in self.rows if r["passed"] is False]
+        lines.append(f"not compliant: {len(failed)} criteria fail ({', '.join(failed)})"
+                     if failed else "compliant: every computed criterion passes")
         if self.not_computed:
             lines.append("not computed: " + ", ".join(
                 f"{r['area']}.{r['quantity']} ({r['note']})" for r in self.not_computed))

@@ -30,7 +30,16 @@ LUMINAIRE_TYPES = ("A", "B", "C", "D", "E", "F")
 ENVIRONMENTS = ("very clean", "clean", "normal", "dirty")
 
 
-class SensorGrid(_GridBase):
+class _StandardGrid(_GridBase):
+    @model_validator(mode="after")
+    def _no_csv(self):
+        if self.target_csv is not None:
+            raise ValueError(f"a {self.kind} grid takes 'target_lux', not 'target_csv' (a CSV "
+                             "map belongs to plane and points grids)")
+        return self
+
+
+class SensorGrid(_StandardGrid):
     """``kind = "sensor"``: cylindrical, semi-cylindrical, hemispherical or vertical sensors at
     ``points`` or at another grid's points (``at_grid``) moved by ``offset_m``."""
 
@@ -60,7 +69,7 @@ class SensorGrid(_GridBase):
         return self
 
 
-class AreaGrid(_GridBase):
+class AreaGrid(_StandardGrid):
     """``kind = "area"``: an EN 12464-1 calculation area (a rectangle ``origin + s·u + t·v``)
     with points at the centres of cells of the standard's spacing ``p = 0.2·5^log10(d)`` m
     (d the longer side, m; p ≤ 10 m), less a ``border_m`` band along its edges and less the
@@ -76,7 +85,7 @@ class AreaGrid(_GridBase):
     normal: Vec3 | None = None
 
 
-class SurfaceGrid(_GridBase):
+class SurfaceGrid(_StandardGrid):
     """``kind = "surface"``: points on the named geometry item's own triangles, ``offset_m``
     in front of them along each triangle's normal, about ``spacing`` m apart; each point keeps
     the triangle's normal, area and material (luminance ρE/π from the scene)."""
@@ -268,3 +277,66 @@ class ComplianceConfig(_Model):
             if names.count(n) > 1:
                 raise ValueError(f"two areas are named {n!r}")
         return self
+
+
+def check_compliance(cfg, fail) -> None:
+    """Names the standards' grids and ``[compliance]`` refer to exist (``fail(key, message)``
+    raises the loader's ConfigError with the key's line)."""
+    grids = {g.name: g for g in cfg.grids}
+    geometry = [g.name for g in cfg.geometry if g.name]
+    networks = set(cfg.networks) or {lum.network for lum in cfg.luminaires}
+
+    def known(what, names):
+        return f"{what}: {', '.join(sorted(names))}" if names else f"no {what} are declared"
+
+    def grid(key, name, kinds=None):
+        if name not in grids:
+            fail(key, f"unknown grid {name!r}; {known('grids', grids)}")
+        if kinds is not None and grids[name].kind not in kinds:
+            fail(key, f"grid {name!r} is a {grids[name].kind} grid; expected "
+                      f"{' or '.join(kinds)}")
+
+    def network(key, name):
+        if name not in networks:
+            fail(key, f"unknown network {name!r}; {known('networks', networks)}")
+
+    for i, g in enumerate(cfg.grids):
+        key = f"grids[{i}]"
+        if g.kind == "sensor" and g.at_grid is not None:
+            grid(f"{key}.at_grid", g.at_grid, ("plane", "points", "area", "surface"))
+        if g.kind == "area" and g.exclude is not None:
+            grid(f"{key}.exclude", g.exclude, ("area",))
+        if g.kind == "surface" and g.geometry not in geometry:
+            fail(f"{key}.geometry", f"no geometry named {g.geometry!r}; "
+                                    f"{known('named geometry', geometry)}")
+    comp = cfg.compliance
+    if comp is None:
+        return
+    if comp.maintenance is not None:
+        for n in comp.maintenance.networks:
+            network(f"compliance.maintenance.networks.{n}", n)
+    if comp.energy is not None:
+        for n in comp.energy.dimming:
+            network(f"compliance.energy.dimming.{n}", n)
+        for p in comp.energy.watts:
+            if p not in cfg.photometry:
+                fail(f"compliance.energy.watts.{p}",
+                     f"unknown photometry {p!r}; {known('photometry', cfg.photometry)}")
+    for i, a in enumerate(comp.areas):
+        key = f"compliance.areas[{i}]"
+        grid(f"{key}.grid", a.grid)
+        if a.cylindrical is not None:
+            grid(f"{key}.cylindrical", a.cylindrical, ("sensor",))
+        for attr in ("surrounding", "background"):
+            if getattr(a, attr) is not None:
+                grid(f"{key}.{attr}", getattr(a, attr))
+        for n in a.networks or ():
+            network(f"{key}.networks", n)
+    ob = comp.obtrusive
+    if ob is not None:
+        for i, w in enumerate(ob.windows):
+            grid(f"compliance.obtrusive.windows[{i}]", w)
+        for i, f in enumerate(ob.facades):
+            grid(f"compliance.obtrusive.facades[{i}]", f, ("surface",))
+        for n in ob.after_curfew or {}:
+            network(f"compliance.obtrusive.after_curfew.{n}", n)

@@ -218,6 +218,9 @@ def _check_references(cfg: StudyConfig, src: Path | None, text: str) -> None:
     from ._observers import check_observers  # _schema imports _observers: loaded by now
 
     check_observers(cfg, fail)
+    from ._compliance import check_compliance  # _schema imports _compliance: loaded by now
+
+    check_compliance(cfg, fail)
 
 
 def _grid_size(g) -> int:

@@ -176,6 +176,8 @@ class Results:
     #: The observers' glare (a ``lumijax.glare.Glare``, typed loosely: results sit below glare),
     #: or None without ``[[observers]]``; ``at`` re-evaluates it at the new design.
     glare: Any = field(default=None, repr=False)
+    #: The verdict per standard (a ``lumijax.compliance.Compliance``; docs/compliance.md).
+    compliance: Any = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         design = self.design
@@ -223,7 +225,9 @@ class Results:
             return dataclasses.replace(self, design=design, lighting=lighting,
                                        optimisation=None,
                                        glare=None if self.glare is None else
-                                       self.glare.at(design))
+                                       self.glare.at(design),
+                                       compliance=None if self.compliance is None else
+                                       self.compliance.at(design.dimmers))
         if self.recompute is None:
             raise LumijaxError("these results cannot be lit at a design that re-aims or "
                                "re-levels a luminaire: they were not made by lumijax.compute, "
@@ -247,4 +251,6 @@ class Results:
             **({"optimisation": _finite_json(self.optimisation.to_dict(), "optimisation")}
                if self.optimisation is not None else {}),
             **({"glare": self.glare.to_dict()} if self.glare is not None else {}),
+            **({"compliance": _finite_json(self.compliance.to_dict(), "compliance")}
+               if self.compliance is not None else {}),
         }

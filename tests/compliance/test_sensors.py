@@ -100,26 +100,19 @@ def test_tilted_lambertian_and_shadow():
     assert expect[0] > 0 and expect[1] > 0
 
 
-def test_inter_reflected_part_against_quadrature():
-    """Cylindrical and hemispherical sensors in a closed grey room: the gathered part against
-    ``Σ_j B_j/π ∫_patch R(u) dω`` by a midpoint rule over each patch (an empty box: every
-    patch is visible from an interior point), which shares nothing with the ray gather."""
-    text = _lamp([1.2, 1.1, 2.4]) + (
-        '[materials.w]\nreflectance = 0.6\n[[geometry]]\nkind = "box"\nmin = [0, 0, 0]\n'
-        'max = [4, 3, 2.8]\nnormals = "inward"\nmaterial = "w"\n[solver]\ntarget_patches = 150\nmethod = "jacobi"\nspectral_samples = 0\n'
-        'cache = false\n'
-        '[[grids]]\nname = "g"\nkind = "points"\npoints = [[2, 1.5, 1.2]]\n')
-    study = _study(text)
-    res = compute(study)
-    sol = res.lighting
-    pts = np.array([[2.0, 1.5, 1.2], [3.1, 0.8, 1.6]])
-    patches = sol.patches
-    b = np.asarray(sol.radiosity, np.float64)[0]
+def test_inter_reflected_part_against_quadrature(office):
+    """Cylindrical and hemispherical sensors in the closed grey office (conftest): the gathered
+    part against ``Σ_j B_j/π ∫_patch R(u) dω`` by a midpoint rule over each patch (an empty
+    box: every patch is visible from an interior point), which shares nothing with the ray
+    gather."""
+    sol = office[1].lighting
+    pts = np.array([[2.0, 1.5, 1.2], [4.6, 0.8, 1.6]])
+    patches = sol.coarse.patches
+    b = np.asarray(sol.coarse.radiosity, np.float64)[0]
     for kind in ("cylindrical", "hemispherical"):
         resp = SensorResponse.uniform(kind, len(pts))
         got = np.asarray(sensor_light(sol, pts, resp, rays=2048).indirect)[0]
-        verts = np.asarray(patches.vertices, np.float64) if hasattr(patches, "vertices") else None
-        expect = _quadrature(pts, resp, patches, b, verts)
+        expect = _quadrature(pts, resp, patches, b, np.asarray(patches.vertices, np.float64))
         np.testing.assert_allclose(got, expect, rtol=0.03)
 
 

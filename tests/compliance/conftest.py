@@ -1,0 +1,115 @@
+"""One small office for the compliance tests, computed once per session: a closed 6 × 4 × 3 m
+room (ρ 0.5), two networks of Lambertian downlights with a lamp spectrum and watts, a desk
+area by the EN 12464-1 rule, its surrounding band, cylindrical sensors above it, and a
+``[compliance]`` table of every kind."""
+
+from __future__ import annotations
+
+import pytest
+
+OFFICE = """
+[study]
+name = "office"
+[solver]
+target_patches = 200
+method = "jacobi"
+spectral_samples = 0
+cache = false
+gather_rays = 256
+[materials.wall]
+reflectance = 0.5
+[photometry.down]
+kind = "lambertian"
+flux_lm = 3000
+[networks.a]
+dimmer = 1.0
+[networks.b]
+dimmer = 0.6
+[[geometry]]
+name = "room"
+kind = "box"
+min = [0, 0, 0]
+max = [6, 4, 3]
+normals = "inward"
+material = "wall"
+[[luminaires]]
+name = "A1"
+photometry = "down"
+position = [2, 2, 2.95]
+network = "a"
+spectrum = "FL2"
+[[luminaires]]
+name = "B1"
+photometry = "down"
+position = [4, 2, 2.95]
+network = "b"
+spectrum = "FL2"
+[[grids]]
+name = "desk"
+kind = "area"
+origin = [1.5, 1.0, 0.8]
+u = [3, 0, 0]
+v = [0, 2, 0]
+[[grids]]
+name = "surround"
+kind = "area"
+origin = [1.0, 0.5, 0.8]
+u = [4, 0, 0]
+v = [0, 3, 0]
+exclude = "desk"
+[[grids]]
+name = "desk_ez"
+kind = "sensor"
+sensor = "cylindrical"
+at_grid = "desk"
+offset_m = [0, 0, 0.4]
+[[grids]]
+name = "wall_s"
+kind = "surface"
+geometry = "room"
+spacing = 1.5
+[compliance.maintenance]
+luminaire_type = "D"
+environment = "clean"
+cleaning_interval_years = 1
+llmf = 0.9
+[compliance.maintenance.networks.b]
+mf = 0.7
+[compliance.energy]
+watts = { down = 25 }
+hours_day = 2250
+hours_night = 250
+occupancy_factor = 0.9
+leni_max = 10
+[compliance.energy.dimming.b]
+curve = "table"
+levels = [0, 0.5, 1]
+power = [0.1, 0.45, 1]
+standby_w = 0.5
+[[compliance.areas]]
+name = "office"
+standard = "EN 12464-1"
+reference = "34.2"
+grid = "desk"
+cylindrical = "desk_ez"
+modelling = [0.3, 0.6]
+surrounding = "surround"
+[compliance.obtrusive]
+zone = "E2"
+curfew = "22:00"
+after_curfew = { a = 0.2 }
+windows = ["desk"]
+facades = ["wall_s"]
+sensitive = [{ name = "corner", point = [0.1, 0.1, 0.1] }]
+"""
+
+
+@pytest.fixture(scope="session")
+def office(tmp_path_factory):
+    """``(study, results)`` of the office (computed once)."""
+    from lumijax import compute, load_study
+
+    path = tmp_path_factory.mktemp("office") / "office.toml"
+    path.write_text(OFFICE)
+    study = load_study(path)
+    return study, compute(study)
