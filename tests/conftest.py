@@ -15,9 +15,10 @@ import textwrap
 import warnings
 from pathlib import Path
 
+import helpers as h
 import jax
 import pytest
-from helpers import box, box_room, lamp, material, network, photometry, plane_grid, study, table
+from helpers import box_room
 
 jax.config.update("jax_enable_x64", True)
 # JAX's compilation cache (lumijax/_jit_cache.py) in a temporary folder, never the user's; the
@@ -51,17 +52,17 @@ def write_study(tmp_path):
     return write
 
 
-TWO_ROOMS = study(
-    table("study", name="Two rooms",
-          description="Two closed rooms side by side, each on its own dimmer."),
-    table("solver", target_patches=400, gather_rays=64, spectral_samples=4, cache=False),
-    material("wall", srgb=[0.7, 0.6, 0.5]), photometry("iso", "isotropic", 1000),
-    network("left", 1.0), network("right", 0.5),
-    box([0, 0, 0], [3, 3, 2.5]), box([5, 0, 0], [8, 3, 2.5]),
-    lamp("L1", [1.5, 1.5, 2.0], "left", spectrum="A"),
-    lamp("R1", [6.5, 1.5, 2.0], "right", spectrum="D65"),
-    plane_grid("floor_left", [0, 0, 0.01], [3, 0, 0], [0, 3, 0], nu=6, nv=6, target_lux=50),
-    plane_grid("floor_right", [5, 0, 0.01], [3, 0, 0], [0, 3, 0], nu=6, nv=6, target_lux=500))
+TWO_ROOMS = h.study_text(
+    h.table("study", name="Two rooms",
+            description="Two closed rooms side by side, each on its own dimmer."),
+    h.table("solver", target_patches=400, gather_rays=64, spectral_samples=4, cache=False),
+    h.material("wall", srgb=[0.7, 0.6, 0.5]), h.photometry("iso", "isotropic", 1000),
+    h.network("left", 1.0), h.network("right", 0.5),
+    h.box([0, 0, 0], [3, 3, 2.5]), h.box([5, 0, 0], [8, 3, 2.5]),
+    h.lamp("L1", [1.5, 1.5, 2.0], "left", spectrum="A"),
+    h.lamp("R1", [6.5, 1.5, 2.0], "right", spectrum="D65"),
+    h.plane_grid("floor_left", [0, 0, 0.01], [3, 0, 0], [0, 3, 0], nu=6, nv=6, target_lux=50),
+    h.plane_grid("floor_right", [5, 0, 0.01], [3, 0, 0], [0, 3, 0], nu=6, nv=6, target_lux=500))
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,7 @@ import numpy as np
 from beartype import BeartypeConf, beartype
 
 __all__ = ["area_lamp", "box", "box_room", "central_difference", "lamp", "material", "mesh", "network",
-           "photometry", "plane_grid", "point_grid", "rectangle", "study", "table", "toml_value",
+           "photometry", "plane_grid", "point_grid", "rectangle", "study_text", "table", "toml_value",
            "typechecker"]
 
 #: The runtime checker pyproject's ``--jaxtyping-packages`` applies: beartype with PEP 484's
@@ -92,7 +92,7 @@ def table(header: str, **keys) -> str:
                                   if v is not None)
 
 
-def study(*parts: str) -> str:
+def study_text(*parts: str) -> str:
     """A study's text: its parts after one empty first line, as a triple-quoted study has."""
     return "\n" + "".join(parts)
 

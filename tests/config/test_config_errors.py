@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import pytest
-from helpers import box, lamp, material, network, photometry, plane_grid, study
+from helpers import box, lamp, material, network, photometry, plane_grid, study_text
 
 from lumijax import ConfigError, load_study
 from lumijax.config import load_config
 
-BASE = study(
+BASE = study_text(
     material("wall", 0.5), photometry("iso", "isotropic", 1000), network("main", 0.5),
     box([0, 0, 0], [4, 5, 3]), lamp("L0", [1, 1, 2.9], "main"),
     lamp("L1", [2, 2.5, 2.9], "main", aim={"tilt": 10, "pan": 0}),

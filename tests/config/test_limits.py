@@ -10,13 +10,13 @@ import math
 
 import numpy as np
 import pytest
-from helpers import box, lamp, material, network, photometry, plane_grid, study
+from helpers import box, lamp, material, network, photometry, plane_grid, study_text
 
 from lumijax import ConfigError, SolveError
 from lumijax.config import parse_config
 from lumijax.config._schema import MAX_GRID_POINTS
 
-ROOM = study(
+ROOM = study_text(
     material("wall", 0.5), photometry("iso", "isotropic", 1000), network("main"),
     box([0, 0, 0], [4, 3, 3]), lamp("L0", [2, 1.5, 2.5], "main"),
     plane_grid("floor", [0, 0, 0.01], [4, 0, 0], [0, 3, 0]))

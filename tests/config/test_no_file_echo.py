@@ -4,14 +4,14 @@ the line and what was expected, and never echoes the file's text (docs/config.md
 from __future__ import annotations
 
 import pytest
-from helpers import box, lamp, material, network, photometry, plane_grid, study
+from helpers import box, lamp, material, network, photometry, plane_grid, study_text
 
 from lumijax import load_study
 from lumijax.errors import LumijaxError
 
 SECRET = "SECRET-MARKER-7f3a9c"
 
-BASE = study(
+BASE = study_text(
     material("wall", 0.5), photometry("iso", "isotropic", 1000), network("main", 0.5),
     box([0, 0, 0], [4, 5, 3]), lamp("L0", [1, 1, 2.9], "main"),
     plane_grid("wp", [0, 0, 0.8], [4, 0, 0], [0, 5, 0], nu=4, nv=5))

@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import central_difference, lamp, photometry, point_grid, study
+from helpers import central_difference, lamp, photometry, point_grid, study_text
 
 import lumijax
 from lumijax import load_study
@@ -39,7 +39,7 @@ def test_spin_turns_c_planes_counter_clockwise():
 
 
 def _wall_study(write_study, photometry_file, aim, tmp_dir):
-    return write_study(study(
+    return write_study(study_text(
         photometry("p", file=photometry_file), lamp("L", [0, 0, 0], photometry="p", **aim),
         point_grid("walls", [[3, 0, 0], [-3, 0, 0], [0, 3, 0], [0, -3, 0], [0, 0, -3], [0, 0, 3]],
                    [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1]])))
@@ -67,7 +67,7 @@ def test_real_downlight_matches_its_tabulated_candela(write_study, shared_photom
     table = np.array([330.8, 336.8, 331.4, 90.7])  # cd at those γ, as printed in the file
     xs = h * np.tan(np.radians(gammas))
     pts = [[float(x), 0.0, 0.0] for x in xs]
-    path = write_study(study(photometry("p", file=shared_photometry / BEGA),
+    path = write_study(study_text(photometry("p", file=shared_photometry / BEGA),
                              lamp("L", [0, 0, h], photometry="p"), point_grid("g", pts)))
     lux = compute(load_study(path))["g"].illuminance_lux
     np.testing.assert_allclose(lux, table * np.cos(np.radians(gammas)) ** 3 / h**2, rtol=1e-3)

@@ -10,7 +10,7 @@ from functools import partial
 
 import numpy as np
 import pytest
-from helpers import area_lamp, box, material, point_grid, rectangle, study
+from helpers import area_lamp, box, material, point_grid, rectangle, study_text
 
 import lumijax
 from lumijax import load_study
@@ -22,7 +22,7 @@ FLUX = 5000.0
 
 
 def _study(write_study, origin, u, v, points, normals, extra=""):
-    return write_study(study(
+    return write_study(study_text(
         area_lamp("panel", [float(x) for x in origin], [float(x) for x in u],
                   [float(x) for x in v], FLUX),
         point_grid("g", [[float(x) for x in p] for p in points],

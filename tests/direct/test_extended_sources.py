@@ -6,7 +6,7 @@ from functools import partial
 
 import jax.numpy as jnp
 import numpy as np
-from helpers import lamp, photometry, plane_grid, study
+from helpers import lamp, photometry, plane_grid, study_text
 
 import lumijax
 from lumijax import load_study
@@ -28,7 +28,7 @@ def test_offsets_follow_the_five_times_rule():
 
 
 def _study(write_study, folder, height):
-    return write_study(study(
+    return write_study(study_text(
         photometry("bar", file=folder / BAR), lamp("bar", [0, 0, height], photometry="bar"),
         plane_grid("g", [-1, -0.5, 0], [2, 0, 0], [0, 1, 0], nu=21, nv=11)))
 

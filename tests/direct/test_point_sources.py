@@ -19,14 +19,14 @@ ISO = 4000.0  # lm
 
 def _plane_study(write_study, **grid):
     """A 4000 lm isotropic lamp 2.5 m above a 10 × 10 m grid of 21 × 21 points at z = 0."""
-    return write_study(h.study(
+    return write_study(h.study_text(
         h.photometry("iso", "isotropic", ISO), h.lamp("L", [0, 0, 2.5]),
         h.plane_grid("g", [-5, -5, 0], [10, 0, 0], [0, 10, 0], nu=21, nv=21, **grid)))
 
 
 def _lamp_over(points, *parts, **lamp_keys):
     """A 1000 lm isotropic lamp at (0, 0, 2) m over a grid of ``points``, and ``parts``."""
-    return h.study(h.photometry("iso", "isotropic", 1000), *parts,
+    return h.study_text(h.photometry("iso", "isotropic", 1000), *parts,
                    h.lamp("L", [0, 0, 2], **lamp_keys), h.point_grid("g", points))
 
 
@@ -52,7 +52,7 @@ def test_vertical_receiver_uses_its_own_cosine(write_study):
 
 
 def test_dimmer_scales_exactly_and_networks_superpose(write_study):
-    path = write_study(h.study(
+    path = write_study(h.study_text(
         h.photometry("iso", "isotropic", 1000), h.network("a", 0.25), h.network("b", 0.5),
         h.lamp("A", [0, 0, 2], "a"), h.lamp("B", [1, 0, 3], "b"),
         h.point_grid("g", [[0, 0, 0], [1, 1, 0], [3, -1, 0]])))
@@ -70,7 +70,7 @@ def test_dimmer_scales_exactly_and_networks_superpose(write_study):
 def test_shadow_of_a_box_matches_projection(write_study):
     """A point source above a cube: the floor inside the cube's projected outline is dark,
     the floor outside it gets the unobstructed closed form."""
-    path = write_study(h.study(
+    path = write_study(h.study_text(
         h.material("m", 0.5), h.photometry("iso", "isotropic", ISO),
         h.box([-0.5, -0.5, 1.0], [0.5, 0.5, 2.0], "m", normals=None), h.lamp("L", [0, 0, 4]),
         h.plane_grid("g", [-3, -3, 0], [6, 0, 0], [0, 6, 0], nu=60, nv=60)))

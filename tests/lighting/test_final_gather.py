@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from helpers import box, lamp, material, network, photometry, plane_grid, study, table
+from helpers import box, lamp, material, network, photometry, plane_grid, study_text, table
 
 import lumijax
 from lumijax import load_study
@@ -19,7 +19,7 @@ from lumijax.lighting import solve_lighting
 
 FLUX = 10_000.0
 
-ROOM = study(
+ROOM = study_text(
     material("wall", 0.7), material("floor", 0.3), material("desk", 0.5),
     photometry("iso", "isotropic", 3000), photometry("down", "lambertian", 2000),
     network("a"), network("b"),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import box, lamp, material, photometry, point_grid, study, table
+from helpers import box, lamp, material, photometry, point_grid, study_text, table
 
 import lumijax
 from lumijax import load_study
@@ -12,7 +12,7 @@ from lumijax import load_study
 
 def _room(wall: dict, spectrum: str, samples: int = 8) -> str:
     """A 4 × 3 × 3 m closed room, walls ``wall``, a 4000 lm isotropic lamp of ``spectrum``."""
-    return study(
+    return study_text(
         material("wall", **wall), material("floor", 0.2), photometry("iso", "isotropic", 4000),
         lamp("L", [2, 1.5, 1.5], spectrum=spectrum), box([0, 0, 0], [4, 3, 3]),
         point_grid("g", [[2, 1.5, 0.8], [0.5, 0.5, 1.0], [3.5, 2.5, 2.0]],

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import dataclasses
 
+import helpers as h
 import numpy as np
 import pytest
-from helpers import box, lamp, material, network, photometry, plane_grid, rectangle, study, table
 
 import lumijax
 from lumijax import LumijaxWarning, load_study
@@ -16,16 +16,16 @@ from lumijax.lighting import solve_lighting
 # The integrating sphere through this same pipeline is in tests/validation.
 
 
-ROOM = study(
-    material("wall", 0.7), material("floor", 0.3),
-    photometry("iso", "isotropic", 3000), photometry("down", "lambertian", 2000),
-    network("a", 0.3), network("b", 0.9),
-    box([0, 0, 0], [4, 3, 2.5]), rectangle([0.5, 0.5, 0.01], [3, 0, 0], [0, 2, 0], "floor"),
-    lamp("A1", [1, 1.5, 2.0], "a"), lamp("B1", [3, 1.0, 2.4], "b", "down"),
-    lamp("B2", [3, 2.0, 2.4], "b", "down", aim={"tilt": 30, "pan": 90}),
-    plane_grid("wp", [0.2, 0.2, 0.8], [3.6, 0, 0], [0, 2.6, 0], nu=6, nv=5),
+ROOM = h.study_text(
+    h.material("wall", 0.7), h.material("floor", 0.3),
+    h.photometry("iso", "isotropic", 3000), h.photometry("down", "lambertian", 2000),
+    h.network("a", 0.3), h.network("b", 0.9),
+    h.box([0, 0, 0], [4, 3, 2.5]), h.rectangle([0.5, 0.5, 0.01], [3, 0, 0], [0, 2, 0], "floor"),
+    h.lamp("A1", [1, 1.5, 2.0], "a"), h.lamp("B1", [3, 1.0, 2.4], "b", "down"),
+    h.lamp("B2", [3, 2.0, 2.4], "b", "down", aim={"tilt": 30, "pan": 90}),
+    h.plane_grid("wp", [0.2, 0.2, 0.8], [3.6, 0, 0], [0, 2.6, 0], nu=6, nv=5),
     # colour is tested elsewhere; four samples keep the spectral path cheap
-    table("solver", patch_size=0.4, tolerance=1e-11, spectral_samples=4))
+    h.table("solver", patch_size=0.4, tolerance=1e-11, spectral_samples=4))
 
 
 def test_any_dimmer_vector_equals_a_full_resolve(write_study):

@@ -5,9 +5,8 @@ grid's light), a 12 × 18 grid on the wall. Point-source spots and the luminous 
 
 from __future__ import annotations
 
-import textwrap
-
 import pytest
+from helpers import lamp, material, network, photometry, plane_grid, rectangle, table
 
 from lumijax.photometry import spot, write_ies
 
@@ -16,54 +15,14 @@ START_AIMS = [(124, -90), (128, -95), (120, -88), (126, -92)]
 
 def facade_text(aims=START_AIMS, dimmers=(0.6, 0.9), grid_extra="target_lux = 30",
                 optimise='variables = ["dimmers"]', extra="") -> str:
-    lums = "".join(textwrap.dedent(f"""
-        [[luminaires]]
-        name = "s{i}"
-        photometry = "spot"
-        network = "n{i % 2}"
-        position = [{1.0 + 1.3 * i}, 2.5, 0.3]
-        aim = {{ tilt = {t}, pan = {p} }}
-        """) for i, (t, p) in enumerate(aims))
-    head = textwrap.dedent(f"""
-        [solver]
-        precision = "float64"
-        target_patches = 200
-        gather_rays = 64
-        spectral_samples = 0
-        cache = false
-        [materials.wall]
-        reflectance = 0.5
-        [photometry.spot]
-        file = "spot.ies"
-        [networks.n0]
-        dimmer = {dimmers[0]}
-        power_w = 30
-        [networks.n1]
-        dimmer = {dimmers[1]}
-        power_w = 50
-        [[geometry]]
-        kind = "rectangle"
-        origin = [0, 0, 0]
-        u = [0, 0, 4]
-        v = [6, 0, 0]
-        material = "wall"
-        [[geometry]]
-        kind = "rectangle"
-        origin = [-1, 0, 0]
-        u = [8, 0, 0]
-        v = [0, 5, 0]
-        material = "wall"
-        """)
-    grid = textwrap.dedent("""
-        [[grids]]
-        name = "wall"
-        kind = "plane"
-        origin = [0, 0.01, 0.05]
-        u = [0, 0, 3.9]
-        v = [6, 0, 0]
-        nu = 12
-        nv = 18
-        """) + grid_extra + "\n"
+    lums = "".join(lamp(f"s{i}", [1.0 + 1.3 * i, 2.5, 0.3], f"n{i % 2}", "spot",
+                        aim={"tilt": t, "pan": p}) for i, (t, p) in enumerate(aims))
+    head = (table("solver", precision="float64", target_patches=200, gather_rays=64,
+                  spectral_samples=0, cache=False)
+            + material("wall", 0.5) + photometry("spot", file="spot.ies")
+            + network("n0", dimmers[0], power_w=30) + network("n1", dimmers[1], power_w=50)
+            + rectangle([0, 0, 0], [0, 0, 4], [6, 0, 0]) + rectangle([-1, 0, 0], [8, 0, 0], [0, 5, 0]))
+    grid = plane_grid("wall", [0, 0.01, 0.05], [0, 0, 3.9], [6, 0, 0], nu=12, nv=18) + grid_extra + "\n"
     opt = "" if optimise is None else "[optimise]\n" + optimise + "\n"
     return head + lums + grid + extra + opt
 

@@ -9,6 +9,7 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import lamp, material, network, photometry, plane_grid, rectangle, study_text, table
 
 import lumijax
 from lumijax.direct import direct_illuminance, point_illuminance
@@ -26,45 +27,14 @@ def _study(write_study, folder, tilt_file):
                               opening=LuminousOpening(1.2, 0.2, 0.0, "rectangle"))
     write_ies(bar, folder / "bar.ies")
     x0, x1, y0, y1, z = OCCLUDER
-    return lumijax.load_study(write_study(f"""
-        [solver]
-        cache = false
-        spectral_samples = 0
-        [materials.grey]
-        reflectance = 0.3
-        [photometry.tilted]
-        file = "{tilt_file}"
-        [photometry.bar]
-        file = "{folder / 'bar.ies'}"
-        [networks.a]
-        [networks.b]
-        [[geometry]]
-        kind = "rectangle"
-        origin = [{x0}, {y0}, {z}]
-        u = [0, {y1 - y0}, 0]
-        v = [{x1 - x0}, 0, 0]
-        material = "grey"
-        [[luminaires]]
-        name = "tilted"
-        photometry = "tilted"
-        network = "a"
-        position = [0.4, 0.1, 2.5]
-        aim = {{ tilt = 30, pan = 10 }}
-        [[luminaires]]
-        name = "bar"
-        photometry = "bar"
-        network = "b"
-        position = [-0.9, 0.0, 0.3]
-        aim = {{ tilt = 8, pan = 0 }}
-        [[grids]]
-        name = "g"
-        kind = "plane"
-        origin = [-2, -1.5, 0]
-        u = [4, 0, 0]
-        v = [0, 3, 0]
-        nu = 41
-        nv = 31
-    """))
+    return lumijax.load_study(write_study(study_text(
+        table("solver", cache=False, spectral_samples=0), material("grey", 0.3),
+        photometry("tilted", file=tilt_file), photometry("bar", file=folder / "bar.ies"),
+        network("a"), network("b"),
+        rectangle([x0, y0, z], [0, y1 - y0, 0], [x1 - x0, 0, 0], "grey"),
+        lamp("tilted", [0.4, 0.1, 2.5], "a", "tilted", aim={"tilt": 30, "pan": 10}),
+        lamp("bar", [-0.9, 0.0, 0.3], "b", "bar", aim={"tilt": 8, "pan": 0}),
+        plane_grid("g", [-2, -1.5, 0], [4, 0, 0], [0, 3, 0], nu=41, nv=31))))
 
 
 @pytest.fixture

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import box, lamp, material, photometry, rectangle, study_text, table
 
 import lumijax
 from lumijax.radiosity import edge_neighbours, mesh_patches, refine_patches
@@ -186,34 +187,12 @@ def test_edge_neighbours_across_t_junctions():
 def test_refine_setting_reaches_the_solve(write_study):
     """``[solver] refine`` through lumijax.compute: the solve runs on the refined patches, and
     their direct light is the closed-form field at their centroids."""
-    text = f"""
-    [materials.grey]
-    reflectance = 0.5
-    [photometry.iso]
-    kind = "isotropic"
-    flux_lm = {PHI}
-    [[geometry]]
-    kind = "rectangle"
-    origin = [0, 0, 0]
-    u = [4, 0, 0]
-    v = [0, 4, 0]
-    material = "grey"
-    [[geometry]]
-    kind = "box"
-    min = {BOX_MIN.tolist()}
-    max = {BOX_MAX.tolist()}
-    material = "grey"
-    [[luminaires]]
-    name = "L"
-    photometry = "iso"
-    position = {SOURCE.tolist()}
-    network = "n"
-    [solver]
-    patch_size = {BASE}
-    spectral_samples = 0
-    refine = REFINE
-    """
-    study = lumijax.load_study(write_study(text.replace("REFINE", "2")))
+    text = study_text(
+        material("grey", 0.5), photometry("iso", "isotropic", PHI),
+        rectangle([0, 0, 0], [4, 0, 0], [0, 4, 0], "grey"),
+        box(BOX_MIN, BOX_MAX, "grey", normals=None), lamp("L", SOURCE),
+        table("solver", patch_size=BASE, spectral_samples=0, refine=2))
+    study = lumijax.load_study(write_study(text))
     tri = study.scene.triangles
     p0 = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=BASE)
     res = lumijax.compute(study)
@@ -228,17 +207,7 @@ def test_refine_setting_reaches_the_solve(write_study):
 
 @pytest.mark.parametrize("line", ["refine = -1", "refine = 1.5", "refine_threshold = 0"])
 def test_bad_refine_settings_name_their_key(write_study, line):
-    path = write_study(f"""
-    [materials.m]
-    reflectance = 0.5
-    [[geometry]]
-    kind = "rectangle"
-    origin = [0, 0, 0]
-    u = [1, 0, 0]
-    v = [0, 1, 0]
-    material = "m"
-    [solver]
-    {line}
-    """)
+    path = write_study(study_text(material("m", 0.5), rectangle([0, 0, 0], [1, 0, 0], [0, 1, 0], "m"),
+                             table("solver")) + line + "\n")
     with pytest.raises(lumijax.ConfigError, match=f"solver.{line.split()[0]}"):
         lumijax.load_study(path)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import lamp, material, network, photometry, plane_grid, rectangle, study_text, table
 
 import lumijax
 from lumijax.photometry import isotropic, write_ies
@@ -16,43 +17,12 @@ RHO = 0.4
 
 def _study(write_study, tmp_path, indirect):
     write_ies(isotropic(FLUX), tmp_path / "iso.ies")
-    return lumijax.load_study(write_study(f"""
-        [solver]
-        cache = false
-        spectral_samples = 0
-        indirect = {str(indirect).lower()}
-        target_patches = 150
-        [materials.grey]
-        reflectance = {RHO}
-        [photometry.iso]
-        file = "{tmp_path / 'iso.ies'}"
-        [networks.n]
-        [[geometry]]
-        kind = "rectangle"
-        origin = [-2, -2, 0]
-        u = [4, 0, 0]
-        v = [0, 4, 0]
-        material = "grey"
-        [[geometry]]
-        kind = "rectangle"
-        origin = [-0.5, -0.5, 1]
-        u = [1, 0, 0]
-        v = [0, 1, 0]
-        material = "grey"
-        [[luminaires]]
-        name = "lamp"
-        photometry = "iso"
-        network = "n"
-        position = [0, 0, 2]
-        [[grids]]
-        name = "g"
-        kind = "plane"
-        origin = [-1.9, -1.9, 0.01]
-        u = [3.8, 0, 0]
-        v = [0, 3.8, 0]
-        nu = 5
-        nv = 5
-    """))
+    return lumijax.load_study(write_study(study_text(
+        table("solver", cache=False, spectral_samples=0, indirect=indirect, target_patches=150),
+        material("grey", RHO), photometry("iso", file=tmp_path / "iso.ies"), network("n"),
+        rectangle([-2, -2, 0], [4, 0, 0], [0, 4, 0], "grey"),
+        rectangle([-0.5, -0.5, 1], [1, 0, 0], [0, 1, 0], "grey"), lamp("lamp", [0, 0, 2]),
+        plane_grid("g", [-1.9, -1.9, 0.01], [3.8, 0, 0], [0, 3.8, 0], nu=5, nv=5))))
 
 
 def test_drawn_patches_are_the_solutions(write_study, tmp_path):

@@ -8,34 +8,22 @@ import warnings
 import numpy as np
 import pytest
 import trimesh
+from helpers import box, material, rectangle, study_text
 
 from lumijax import LumijaxWarning, load_study
 from lumijax.scene._coplanar import coincident_surfaces
 
-ROOM = """
-[materials.wall]
-reflectance = 0.5
-[[geometry]]
-kind = "box"
-name = "room"
-min = [0, 0, 0]
-max = [6, 5, 3]
-normals = "inward"
-material = "wall"
-[[geometry]]
-kind = "rectangle"
-name = "rug"
-origin = [1, 1, {z}]
-u = [{ux}, 0, 0]
-v = [0, {vy}, 0]
-material = "wall"
-"""
+
+def _room(z, ux, vy):
+    """A 6 × 5 × 3 m room and a ``ux`` × ``vy`` m rug at height ``z`` (m), facing ``u × v``."""
+    return study_text(material("wall", 0.5), box([0, 0, 0], [6, 5, 3], name="room"),
+                 rectangle([1, 1, z], [ux, 0, 0], [0, vy, 0], name="rug"))
 
 
 def _coincidence_warnings(write_study, **kw):
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
-        load_study(write_study(ROOM.format(**kw)))
+        load_study(write_study(_room(**kw)))
     return [str(w.message) for w in rec
             if issubclass(w.category, LumijaxWarning) and "lies on" in str(w.message)]
 

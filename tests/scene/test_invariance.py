@@ -42,7 +42,7 @@ def _study(offset=(0.0, 0.0, 0.0), s=1.0, precision="float32") -> str:
     # row's centroids at the block's top height) is decided by float32 rounding at any
     # position; see docs/conventions.md, "Tolerances"
     site = {"group": "site"}
-    return h.study(
+    return h.study_text(
         h.table("solver", target_patches=200, gather_rays=48, spectral_samples=0, cache=False,
                 precision=precision),
         h.table("groups.site", translate=list(offset), scale=s),

@@ -7,7 +7,7 @@ from functools import partial
 import numpy as np
 import pytest
 import trimesh
-from helpers import box, lamp, material, mesh, photometry, point_grid, study, table
+from helpers import box, lamp, material, mesh, photometry, point_grid, study_text, table
 
 import lumijax
 from lumijax import GeometryError, load_study
@@ -17,7 +17,7 @@ from lumijax.scene import Frame, resolve_group_frames, rotation_xyz
 # these tests check direct light against closed forms: inter-reflection off
 compute = partial(lumijax.compute, indirect=False)
 
-HEAD = study(material("m", 0.4), photometry("iso", "isotropic", 1000))
+HEAD = study_text(material("m", 0.4), photometry("iso", "isotropic", 1000))
 
 
 def test_nested_group_frames_compose_parent_first(write_study):
@@ -114,7 +114,7 @@ def test_lm63_tilt_factor_follows_the_real_world_tilt(write_study, shared_photom
     """er_TILT_TEST_SYNTHETIC.ies: factors 1.0/0.9/0.8/1.0 at 0/45/90/180° (read off its header).
     A luminaire with zero aim inside a group turned 90° about x is tilted 90° in the world."""
     t = {"photometry": "t"}
-    path = write_study(study(
+    path = write_study(study_text(
         photometry("t", file=shared_photometry / "er_TILT_TEST_SYNTHETIC.ies"),
         table("groups.turned", rotate=[90, 0, 0]), lamp("straight", [0, 0, 3], **t),
         lamp("half", [0, 0, 3], aim={"tilt": 45}, **t),

@@ -96,7 +96,7 @@ def test_integrating_sphere(shared_dir, rho):
 
 def _cube(rho, sources, points, normals):
     """The 4 × 4 × 4 m room of reflectance ``rho`` with ``sources`` and an inside points grid."""
-    return h.study(h.material("wall", rho), h.box([0, 0, 0], [4, 4, 4]), *sources,
+    return h.study_text(h.material("wall", rho), h.box([0, 0, 0], [4, 4, 4]), *sources,
                    h.point_grid("inside", points, normals),
                    h.table("solver", patch_size=0.8, gather_rays=256))
 
@@ -150,7 +150,7 @@ def test_radiance_side_by_side(write_study, tmp_path):
     sphere); with inter-reflection the means within 5 % (loose: coarse settings on both)."""
     pr = pytest.importorskip("pyradiance")
     rho, flux, lamp = 0.5, 5000.0, (2.2, 2.0, 2.5)
-    path = write_study(h.study(
+    path = write_study(h.study_text(
         h.material("grey", rho), h.photometry("iso", "isotropic", flux),
         h.box([0, 0, 0], [5, 4, 3], "grey"),
         h.box([1.6, 1.2, 0.7], [3.4, 2.4, 0.75], "grey", normals=None),
