@@ -64,6 +64,8 @@ class ComplianceModel(eqx.Module):
     lum_network: Array
     post_mask: Float[Array, " net"]
     post_value: Float[Array, " net"]
+    glare: Any  # lumijax.glare.GlareModel of the study's observers, or None
+    design: Any  # the Design whose dimmers the glare ratings are evaluated at (or None)
     criteria: tuple = eqx.field(static=True)
     areas_m2: dict = eqx.field(static=True)
     energy: Any = eqx.field(static=True)
@@ -119,6 +121,10 @@ class ComplianceModel(eqx.Module):
         if kind == "leni":
             return leni_kwh_per_m2(self.power.total_w(d, spec[1]), self.areas_m2[spec[2]],
                                    self.energy)
+        if kind in ("ugr", "gr"):  # the worst over the area's observers' views
+            r = self.glare.ratings(self.design.replace(dimmers=w))
+            views = jnp.isin(self.glare.view_observer, jnp.asarray(spec[1]))
+            return jnp.max(jnp.where(views, r.ugr if kind == "ugr" else r.gr, -jnp.inf))
         if kind == "constant":
             return jnp.asarray(spec[1])
         raise ValueError(f"unknown quantity {kind!r}")
@@ -277,8 +283,9 @@ def compliance_model(study, results) -> ComplianceModel:
             criteria.append(Criterion(std, a.name, "U0", "", u0, "min", ("u0", task), u0_src))
         if glare is not None:
             gname = "UGR_L" if std == "EN 12464-1" else "GR_L"
-            criteria.append(Criterion(std, a.name, gname, "", glare, "max", None, g_src,
-                                      note="glare rating not available in this build"))
+            gspec, why = _glare_spec(results, a, "ugr" if std == "EN 12464-1" else "gr")
+            criteria.append(Criterion(std, a.name, gname, "", glare, "max", gspec, g_src,
+                                      note=why))
         if ra is not None:
             value, why = _ra(sc, a.networks)
             criteria.append(Criterion(std, a.name, "Ra", "", ra, "min",
@@ -413,11 +420,26 @@ def compliance_model(study, results) -> ComplianceModel:
                                       ("luminance", fname), zone,
                                       "before curfew" if ob.curfew else ""))
     mf = jnp.asarray(network_maintenance(comp.maintenance, names, src))
+    glare = results.glare.model if getattr(results, "glare", None) is not None else None
     return ComplianceModel(grids=grids, weights=weights, mf=mf, power=power, ulr_up=ulr_up,
                            ulr_total=ulr_tot, intensity=intensity, lum_network=lum_net,
-                           post_mask=post_mask, post_value=post_value,
+                           post_mask=post_mask, post_value=post_value, glare=glare,
+                           design=results.design if glare is not None else None,
                            criteria=tuple(criteria), areas_m2=areas_m2, energy=energy,
                            networks=names)
+
+
+def _glare_spec(results, area, kind: str) -> tuple[tuple | None, str]:
+    """The glare quantity of ``area`` (its observers' worst UGR or GR, ``lumijax.glare``), or
+    None and why it is not computed."""
+    if not area.observers:
+        return None, "no 'observers' given for the area (docs/glare.md)"
+    glare = getattr(results, "glare", None)
+    if glare is None:
+        return None, "the study computed no glare ratings"
+    names = glare.model.observers
+    return ("ugr" if kind == "ugr" else "gr",
+            tuple(names.index(o) for o in area.observers)), ""
 
 
 def _network_index(names, n, src, key) -> int:

@@ -209,6 +209,7 @@ class AreaCriteria(_Model):
     background: Name | None = None
     networks: list[Name] | None = None
     area_m2: Positive | None = None
+    observers: list[Name] | None = None
 
     @model_validator(mode="after")
     def _some(self):
@@ -332,6 +333,11 @@ def check_compliance(cfg, fail) -> None:
                 grid(f"{key}.{attr}", getattr(a, attr))
         for n in a.networks or ():
             network(f"{key}.networks", n)
+        observers = {o.name for o in getattr(cfg, "observers", ())}
+        for o in a.observers or ():
+            if o not in observers:
+                fail(f"{key}.observers", f"unknown observer {o!r}; "
+                                         f"{known('observers', observers)}")
     ob = comp.obtrusive
     if ob is not None:
         for i, w in enumerate(ob.windows):

@@ -94,6 +94,11 @@ grid = "desk"
 cylindrical = "desk_ez"
 modelling = [0.3, 0.6]
 surrounding = "surround"
+observers = ["seat"]
+[[observers]]
+name = "seat"
+position = [3.0, 0.6, 1.2]
+look_at = [3.0, 4.0, 1.2]
 [compliance.obtrusive]
 zone = "E2"
 curfew = "22:00"
