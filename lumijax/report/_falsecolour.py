@@ -214,7 +214,7 @@ def _ruler_ticks(t: np.ndarray, vec: np.ndarray) -> tuple[str | None, float, flo
     eps = 1e-9 * span
     first = ticks[ticks <= lo + eps].max() if np.any(ticks <= lo + eps) else lo
     last = ticks[ticks >= hi - eps].min() if np.any(ticks >= hi - eps) else hi
-    inner = ticks[(ticks >= first - eps) & (ticks <= last + eps)]
+    inner: np.ndarray = ticks[(ticks >= first - eps) & (ticks <= last + eps)]
     if inner.size < 2:
         inner = np.array([first, last])
     return name, sign, offset, inner
@@ -288,6 +288,7 @@ def falsecolour_map(
     clim: tuple[float, float] | None = None,
     window_size: tuple[int, int] = WINDOW_SIZE,
     labels: bool = True,
+    luminaires: Sequence[tuple] = (),
 ) -> Path:
     """Write a false-colour iso-lux map of a calculation grid to the PNG ``path``; return it.
 
@@ -321,6 +322,10 @@ def falsecolour_map(
         Image size in pixels.
     labels
         Label the iso-lux lines with their values.
+    luminaires
+        ``(position, aim axis)`` pairs (m; unit vector): each luminaire whose position, seen
+        face-on, falls on the drawing is drawn there as a black dot with a short line along its
+        aim's component in the grid's plane (none for one aimed straight at the plane).
 
     The camera is a fixed parallel projection (see :func:`make_view`), so a world point maps to
     an exact pixel; the grid is drawn unlit, so its colours are exactly :func:`lux_to_rgb` of the
@@ -362,6 +367,7 @@ def falsecolour_map(
     plotter = pv.Plotter(off_screen=True, window_size=list(view.window_size))
     try:
         _draw(pv, plotter, mesh, view, p, e, title, levels, scale, cmap, (vmin, vmax), labels)
+        _luminaires(pv, plotter, view, p, luminaires)
         with atomic_path(path, what="map", suffix=".png") as tmp:  # VTK reads the suffix
             plotter.screenshot(str(tmp), transparent_background=False)
     finally:
@@ -493,6 +499,46 @@ def _draw(pv, pl, mesh, view, p, e, title, levels, scale, cmap, clim, labels) ->
     cam.up = tuple(view.up)
     cam.parallel_scale = view.parallel_scale
     pl.renderer.ResetCameraClippingRange()
+
+
+def _luminaires(pv, pl, view: View, p: np.ndarray, luminaires) -> None:
+    """Luminaires over the grid (``falsecolour_map``'s ``luminaires``), lifted towards the
+    camera so the surface never hides them."""
+    if not len(luminaires):
+        return
+    u, v = p @ view.right, p @ view.up
+    margin = 0.1 * max(float(np.ptp(u)), float(np.ptp(v)), 1e-9)
+    depth = float(np.max(p @ view.normal)) + 1e-3 * view.parallel_scale
+    length = 0.06 * max(float(np.ptp(u)), float(np.ptp(v)), 1e-9)
+    dots, segments = [], []
+    for pos, axis in luminaires:
+        pos, axis = np.asarray(pos, np.float64), np.asarray(axis, np.float64)
+        a, b = float(pos @ view.right), float(pos @ view.up)
+        if not (u.min() - margin <= a <= u.max() + margin
+                and v.min() - margin <= b <= v.max() + margin):
+            continue
+        at = a * view.right + b * view.up + depth * view.normal
+        dots.append(at)
+        flat = (axis @ view.right) * view.right + (axis @ view.up) * view.up
+        if np.linalg.norm(flat) > 1e-3:
+            segments.append((at, at + length * flat / max(np.linalg.norm(axis), 1e-300)))
+    if not dots:
+        return
+    size = max(7, view.window_size[1] // 80)
+    # black on a white halo: readable on viridis' dark end as on its bright one
+    if segments:
+        pts = np.array([q for seg in segments for q in seg])
+        lines = np.column_stack([np.full(len(segments), 2), np.arange(0, len(pts), 2),
+                                 np.arange(1, len(pts), 2)]).ravel()
+        aims = pv.PolyData(pts, lines=lines)
+        pl.add_mesh(aims, color="white", line_width=5, lighting=False)
+    lift = view.normal * 1e-4 * view.parallel_scale  # white under black, dots over lines
+    pl.add_points(np.array(dots) + lift, color="white", point_size=size + 4,
+                  render_points_as_spheres=False, lighting=False)
+    if segments:
+        pl.add_mesh(aims.translate(2 * lift), color="black", line_width=2, lighting=False)
+    pl.add_points(np.array(dots) + 3 * lift, color="black", point_size=size,
+                  render_points_as_spheres=False, lighting=False)
 
 
 def _axis_name(vec: np.ndarray) -> tuple[str, float] | None:

@@ -75,7 +75,8 @@ def path_legs(points) -> list[np.ndarray]:
         return [np.arange(len(p))]
     steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
     typical = float(np.median(steps))
-    breaks = np.flatnonzero(steps > LEG_BREAK * typical) + 1 if typical > 0 else []
+    breaks: np.ndarray | list[int] = (np.flatnonzero(steps > LEG_BREAK * typical) + 1
+                                      if typical > 0 else [])
     return [np.asarray(leg) for leg in np.split(np.arange(len(p)), breaks)]
 
 
@@ -266,10 +267,11 @@ def grid_picture(grid: GridResult, config=None, *, title: str, luminaires=(),
                  size=(1200, 820)) -> GridPicture:
     """The picture of one grid (module docstring); ``config`` is its ``[[grids]]`` entry (for
     the limits drawn on a profile), ``luminaires`` ``(position, aim axis)`` pairs (m) drawn on
-    a plan. A map that cannot be drawn raises the renderer's :class:`LumijaxError`."""
+    a map or a plan where they stand over the grid. A map that cannot be drawn raises the renderer's :class:`LumijaxError`."""
     kind = picture_kind(grid.points, grid.normals, grid.shape)
     e = np.asarray(grid.illuminance_lux, np.float64)
     stats = f"Eavg {_fmt(e.mean())} lx, Emin {_fmt(e.min())} lx, Emax {_fmt(e.max())} lx"
+    marks = ", luminaires over it as black dots with their aims" if len(luminaires) else ""
     if kind == "map":
         from ._falsecolour import falsecolour_map
 
@@ -280,9 +282,9 @@ def grid_picture(grid: GridResult, config=None, *, title: str, luminaires=(),
             path = Path(tmp) / "map.png"
             falsecolour_map(grid.points, e, path, shape=grid.shape,
                             normal=normal if np.linalg.norm(normal) > 0 else None,
-                            title=title, window_size=size)
+                            title=title, window_size=size, luminaires=luminaires)
             png = path.read_bytes()
-        return GridPicture("map", png, f"{grid.name}: iso-lux map; {stats}, "
+        return GridPicture("map", png, f"{grid.name}: iso-lux map{marks}; {stats}, "
                            f"U0 {grid.stats['u0']:.2f}.")
     if kind == "profile":
         legs = len(path_legs(grid.points))

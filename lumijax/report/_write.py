@@ -20,6 +20,7 @@ import re
 import secrets
 import shutil
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -185,8 +186,8 @@ def _write_text(staging: Path, rel: str, text: str) -> None:
     _step(f"wrote {rel}")
 
 
-def write_results(results: Results, out: str | Path | ResultSet, *, images: bool = True
-                  ) -> dict[str, Path]:
+def write_results(results: Results, out: str | Path | ResultSet, *, images: bool = True,
+                  timings: dict[str, float] | None = None) -> dict[str, Path]:
     """Write results as one set and return the paths (in the output folder) of the files.
 
     ``out``: a folder (created if needed; the set is swapped in before this returns), or an open
@@ -197,10 +198,13 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
     (x, y, z in m; lux), ``optimised.toml`` (after an optimisation), ``patches.vtp`` (the
     radiosity patches and their light, when inter-reflection was computed) and, with
     ``images``, ``images/NAME.png`` false-colour iso-lux maps.
+
+    ``timings``: a dict that gets ``images``, the seconds spent drawing them (``lumijax run
+    --timings``).
     """
     if not isinstance(out, ResultSet):
         with ResultSet(out) as rs:
-            paths = write_results(results, rs, images=images)
+            paths = write_results(results, rs, images=images, timings=timings)
             rs.commit()
         return paths
     rs = out
@@ -220,22 +224,29 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         for name, g in results.grids.items():
             _write_text(staging, f"grids/{name}.csv", _grid_csv(g.points, g.illuminance_lux))
             written.append(f"grids/{name}.csv")
+        t_images = time.perf_counter()
         if images and results.grids:
             from ._gridplots import grid_picture
 
             (staging / "images").mkdir(exist_ok=True)
+            lit = results.lighting
+            aims = [] if lit is None else [(lum.position, lum.axis)
+                                           for lum in lit.scene.luminaires]
             for name, g in results.grids.items():
                 # every grid draws something true: a map, a profile along its path, or a plan
                 try:
-                    pic = grid_picture(g, title=f"{results.study} — {name}", size=(1600, 1100))
+                    pic = grid_picture(g, title=f"{results.study} — {name}", size=(1600, 1100),
+                                       luminaires=aims)
                 except LumijaxError as e:
                     raise OutputError(f"cannot draw the picture of grid {name!r}: {e.message}",
                                       file=out_dir) from None
                 (staging / "images" / f"{name}.png").write_bytes(pic.png)
                 written.append(f"images/{name}.png")
                 _step(f"wrote images/{name}.png")
+        if timings is not None:
+            timings["images"] = time.perf_counter() - t_images
         lighting = results.lighting
-        if lighting is not None and lighting.patches is not None:
+        if lighting is not None and lighting.coarse.patches is not None:
             from ._vtk import write_patches_vtp
 
             write_patches_vtp(lighting, results.design.dimmers, staging / "patches.vtp")

@@ -104,3 +104,39 @@ def test_map_rulers_cover_the_data(tmp_path, size):
     col = left[:, np.argmax(left.sum(axis=0))]
     rows = np.flatnonzero(col)
     assert rows.min() <= r_lo + 1 and rows.max() >= r_hi - 1
+
+
+def test_map_draws_the_luminaires_over_it(tmp_path):
+    size = (800, 560)
+    nu, nv = 25, 11
+    U, V = np.meshgrid((np.arange(nu) + 0.5) * 12.3 / nu, (np.arange(nv) + 0.5) * 5.1 / nv,
+                       indexing="ij")
+    pts = np.column_stack([U.ravel(), V.ravel(), np.full(U.size, 0.85)])
+    down, slanted, away = ((3.0, 2.5, 2.8), (0, 0, -1.0)), ((8.0, 1.0, 2.8), (0.6, 0.6, -0.5)), (
+        (30.0, 1.0, 2.8), (0, 0, -1.0))
+    path = falsecolour_map(pts, 100 + 50 * U.ravel(), tmp_path / "m.png", shape=(nu, nv),
+                           title="ramp", window_size=size, levels=[],
+                           luminaires=[down, slanted, away])
+    from PIL import Image
+
+    img = np.asarray(Image.open(path).convert("RGB"), float) / 255
+    view = make_view(pts, None, size)
+
+    def dark(col, row):
+        return img[int(round(row - 0.5)), int(round(col - 0.5))].sum() < 0.3
+
+    for pos, _ in (down, slanted):  # a dot where each stands, seen from above
+        assert dark(*view.pixel(pos))
+    # the slanted one's aim runs up and to the right in the plan (its x, y components), the
+    # downlight has none
+    c, r = view.pixel(slanted[0])
+    step = np.array([1.0, -1.0]) / np.sqrt(2)  # image rows grow downwards
+    assert dark(*(np.array([c, r]) + 15 * step)) and not dark(*(np.array([c, r]) - 15 * step))
+    c, r = view.pixel(down[0])
+    assert not any(dark(c + dx, r + dy) for dx, dy in ((15, 0), (-15, 0), (0, 15), (0, -15)))
+    # two marks on the grid, not three: the one 30 m away is not on the drawing
+    from scipy import ndimage
+
+    (c0, r1), (c1, r0) = view.pixel(pts.min(axis=0)), view.pixel(pts.max(axis=0))
+    inside = img[int(r0) + 2:int(r1) - 2, int(c0) + 2:int(c1) - 2].sum(axis=-1) < 0.3
+    assert ndimage.label(inside)[1] == 2
