@@ -101,7 +101,7 @@ class Glare:
             if small or large:
                 entry["outside_ugr_range"] = sorted(set(small) | set(large))[:10]
             dirs.append(entry)
-        worst = {}
+        worst: dict = {}
         for rating, key in (("ugr", "ugr"), ("gr", "gr"), ("ti", "ti_percent")):
             vals = [(d[key], j) for j, d in enumerate(dirs) if d.get(key) is not None]
             if not vals:
@@ -141,6 +141,12 @@ class Glare:
     @cached_property
     def _omega(self) -> np.ndarray:
         """Solid angle (sr) of every source as each view sees it, at the design."""
+        return self._geometry[0]
+
+    @cached_property
+    def _geometry(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per view and source (``names`` order), at the design: solid angle (sr), position
+        index, unit direction eye → source (world)."""
         import jax.numpy as jnp
 
         from ..scene._frames import aim_rotation
@@ -148,19 +154,40 @@ class Glare:
 
         m, d = self.model, self.design
         obs = np.asarray(m.view_observer)
-        out = np.zeros((m.n_views, len(m.names)))
+        n = len(m.names)
+        omega = np.zeros((m.n_views, n))
+        pos = np.ones((m.n_views, n))
+        dirs = np.zeros((m.n_views, n, 3))
         tilt, pan, spin = (np.radians(np.asarray(getattr(d, f), np.float64))
                            for f in ("tilt_deg", "pan_deg", "spin_deg"))
         for g in m.sources:
             idx = np.asarray(g.index)
             rot = np.asarray(g.frame) @ np.asarray(aim_rotation(tilt[idx], pan[idx], spin[idx],
                                                                 xp=np))
-            local = np.einsum("mji,omj->omi", rot, np.asarray(g.towards_eye))
+            w = np.asarray(g.towards_eye)
+            local = np.einsum("mji,omj->omi", rot, w)
             area = np.asarray(projected_area(g.opening, jnp.asarray(local)))
-            out[:, idx] = (area * np.asarray(g.inv_d2))[obs]
+            omega[:, idx] = (area * np.asarray(g.inv_d2))[obs]
+            pos[:, idx] = np.asarray(g.position)
+            dirs[:, idx] = -w[obs]
         if m.areas is not None:
-            out[:, m.n_luminaires:] = np.asarray(m.areas.solid_angle)[obs]
-        return out
+            omega[:, m.n_luminaires:] = np.asarray(m.areas.solid_angle)[obs]
+            pos[:, m.n_luminaires:] = np.asarray(m.areas.position)
+        return omega, pos, dirs
+
+    def seen_sources(self, view: int) -> list[dict[str, Any]]:
+        """The sources view ``view`` rates (in front, not hidden, lit), brightest first: name,
+        unit direction eye → source (world; zero for area sources), luminance (cd/m², at the
+        design's dimmers), solid angle (sr) and position index."""
+        terms = self._contributions[0][view]
+        omega, pos, dirs = (a[view] for a in self._geometry)
+        out = []
+        for q in np.flatnonzero(terms > 0):
+            lum = float(np.sqrt(terms[q] * pos[q] ** 2 / omega[q]))
+            out.append({"name": self.model.names[q], "direction": dirs[q].tolist(),
+                        "luminance_cdm2": lum, "solid_angle_sr": float(omega[q]),
+                        "position_index": float(pos[q])})
+        return sorted(out, key=lambda x: -x["luminance_cdm2"])
 
 
 def _check_finite(value, key: str) -> None:

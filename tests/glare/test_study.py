@@ -125,3 +125,19 @@ def test_unshadowed_compute_has_no_background_and_writes_null(results):
     assert desk["ugr"] is None and "no_background" in desk["flags"]
     names = dry.glare.model.names
     assert np.asarray(dry.glare._contributions[0])[0, names.index("B")] > 0  # nothing hides
+
+
+def test_report_section_has_the_table_and_a_fisheye(results):
+    from lumijax.report._glare import glare_sections
+
+    (section,) = glare_sections(None, results, pictures=True)
+    worst = results.glare.to_dict()["desk"]["worst"]["ugr"]["value"]
+    assert section.id == "glare" and "<td>desk</td>" in section.html
+    assert f"<td>{worst:.1f}</td>" in section.html
+    assert section.html.count('<img src="data:image/png;base64,') == 1
+    seen = results.glare.seen_sources(0)
+    assert [s["name"] for s in seen] == ["A"]
+    # a Lambertian-free square of 1000 cd: L = I / (A cos γ) toward the eye
+    d = np.subtract([3, 2, 2.8], [0.5, 2, 1.2])
+    cos_g = 1.6 / np.linalg.norm(d)
+    assert seen[0]["luminance_cdm2"] == pytest.approx(I0 / (0.04 * cos_g), rel=1e-3)
