@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import json
 import math
 import os
 import platform
@@ -125,8 +126,27 @@ def interior_points(n: int, radius: float, seed: int = 1):
     return d * r, nrm
 
 
-def toml_list(a) -> str:
-    return "[" + ", ".join("[" + ", ".join(f"{v:.6f}" for v in row) + "]" for row in a) + "]"
+def toml_value(v) -> str:
+    """A TOML value: JSON writes numbers, strings, booleans and lists as TOML reads them; a dict
+    is an inline table."""
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + " }"
+    return json.dumps(v)
+
+
+def table(header: str, **keys) -> str:
+    """One TOML table, ``header`` as written (``[name]`` or ``[[name]]``), then a key a line."""
+    return header + "\n" + "".join(f"{k} = {toml_value(v)}\n" for k, v in keys.items())
+
+
+def rounded(a) -> list:
+    """Coordinates (m) to the µm, as the study files carry them."""
+    return [[round(float(v), 6) for v in row] for row in a]
+
+
+def box(lo, hi, normals: str, material: str, **keys) -> str:
+    return table("[[geometry]]", kind="box", min=list(lo), max=list(hi), normals=normals,
+                 material=material, **keys)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -145,32 +165,15 @@ def sphere_study(folder: Path, rho: float, *, subdivisions: int, patch_size: flo
     sphere.invert()  # seen from inside: normals point inward
     sphere.export(folder / "sphere.ply")
     pts, nrm = interior_points(points, 0.75 * radius)
-    path = write_study(folder, f"rho{rho}", f"""
-        [study]
-        name = "integrating sphere rho={rho}"
-        [materials.wall]
-        reflectance = {rho}
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {flux}
-        [[geometry]]
-        kind = "mesh"
-        file = "sphere.ply"
-        material = "wall"
-        [[luminaires]]
-        name = "L"
-        photometry = "iso"
-        position = [0, 0, 0]
-        network = "n"
-        [[grids]]
-        name = "inside"
-        kind = "points"
-        points = {toml_list(pts)}
-        normals = {toml_list(nrm)}
-        [solver]
-        patch_size = {patch_size}
-        gather_rays = {gather_rays}
-    """)
+    path = write_study(folder, f"rho{rho}", "".join([
+        table("[study]", name=f"integrating sphere rho={rho}"),
+        table("[materials.wall]", reflectance=rho),
+        table("[photometry.iso]", kind="isotropic", flux_lm=flux),
+        table("[[geometry]]", kind="mesh", file="sphere.ply", material="wall"),
+        table("[[luminaires]]", name="L", photometry="iso", position=[0, 0, 0], network="n"),
+        table("[[grids]]", name="inside", kind="points", points=rounded(pts),
+              normals=rounded(nrm)),
+        table("[solver]", patch_size=patch_size, gather_rays=gather_rays)]))
     return path, float(sphere.area), pts
 
 
@@ -184,14 +187,14 @@ def sphere_case(out: Path, rho: float, subdivisions: int, patch_size: float, rep
     sol = res.lighting
     e = sol.patch_illuminance()[0]
     ref = flux / (area * (1 - rho))
-    mean = area_mean(e, sol.patches.area)
+    mean = area_mean(e, sol.coarse.patches.area)
     worst = e[np.argmax(np.abs(e - ref))]
     g = res.grids["inside"]
     indirect = g.illuminance_lux - g.at_dimmers_direct(g.dimmers)
     ref_ind = rho * ref
     worst_ind = indirect[np.argmax(np.abs(indirect - ref_ind))]
     case = f"1 sphere ρ={rho}"
-    geo = f"icosphere s{subdivisions}, {sol.patches.n} patches"
+    geo = f"icosphere s{subdivisions}, {sol.coarse.patches.n} patches"
     rep.add(Row(case, "mean patch irradiance (lx)", f"Φ/(A(1−ρ)) = {ref:.2f}", f"{mean:.2f}",
                 pct(mean / ref - 1), "1 %", abs(mean / ref - 1) <= 0.01, wall_cell(res, wall), geo))
     rep.add(Row(case, "worst patch irradiance (lx)", f"{ref:.2f}", f"{worst:.2f}",
@@ -205,7 +208,7 @@ def sphere_case(out: Path, rho: float, subdivisions: int, patch_size: float, rep
     # The direct light alone: what the patches receive from the source (their centroid values ×
     # area) against the flux Φ that lands on the walls. Any excess is point sampling of the
     # inverse-square law on flat facets, not inter-reflection, and scales every value above.
-    direct = float(np.sum(sol.patch_direct[0] * sol.patches.area))
+    direct = float(np.sum(sol.coarse.patch_direct[0] * sol.coarse.patches.area))
     rep.add(Row(case, "direct flux on the patches, Σ A·E_direct (lm)", f"Φ = {flux:.0f}",
                 f"{direct:.1f}", pct(direct / flux - 1),
                 notes="informative: centroid sampling of the direct light"))
@@ -221,45 +224,19 @@ CUBE = 4.0
 def cube_flux_case(out: Path, rho: float, patch_size: float, rep: Report, flux: float = 10_000.0):
     """Isotropic source at the centre and an off-centre tilted Lambertian: Φ/(S(1−ρ))."""
     folder = out / "cube"  # every cube study shares one operator (materials are not in its key)
-    path = write_study(folder, f"flux-rho{rho}", f"""
-        [study]
-        name = "cube flux balance rho={rho}"
-        [materials.wall]
-        reflectance = {rho}
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {flux}
-        [photometry.down]
-        kind = "lambertian"
-        flux_lm = {flux}
-        [[geometry]]
-        kind = "box"
-        min = [0, 0, 0]
-        max = [{CUBE}, {CUBE}, {CUBE}]
-        normals = "inward"
-        material = "wall"
-        [[luminaires]]
-        name = "centre"
-        photometry = "iso"
-        position = [2, 2, 2]
-        network = "iso"
-        [[luminaires]]
-        name = "tilted"
-        photometry = "down"
-        position = [1.0, 2.7, 3.5]
-        aim = {{ tilt = 35, pan = 20 }}
-        network = "lambertian"
-        [[grids]]
-        name = "floor"
-        kind = "plane"
-        origin = [0, 0, 0.0]
-        u = [{CUBE}, 0, 0]
-        v = [0, {CUBE}, 0]
-        nu = 8
-        nv = 8
-        [solver]
-        patch_size = {patch_size}
-    """)
+    path = write_study(folder, f"flux-rho{rho}", "".join([
+        table("[study]", name=f"cube flux balance rho={rho}"),
+        table("[materials.wall]", reflectance=rho),
+        table("[photometry.iso]", kind="isotropic", flux_lm=flux),
+        table("[photometry.down]", kind="lambertian", flux_lm=flux),
+        box([0, 0, 0], [CUBE] * 3, "inward", "wall"),
+        table("[[luminaires]]", name="centre", photometry="iso", position=[2, 2, 2],
+              network="iso"),
+        table("[[luminaires]]", name="tilted", photometry="down", position=[1.0, 2.7, 3.5],
+              aim={"tilt": 35, "pan": 20}, network="lambertian"),
+        table("[[grids]]", name="floor", kind="plane", origin=[0, 0, 0.0], u=[CUBE, 0, 0],
+              v=[0, CUBE, 0], nu=8, nv=8),
+        table("[solver]", patch_size=patch_size)]))
     res, wall = run(path)
     sol = res.lighting
     e = sol.patch_illuminance()
@@ -267,11 +244,11 @@ def cube_flux_case(out: Path, rho: float, patch_size: float, rep: Report, flux: 
     ref = flux / (s * (1 - rho))
     case = f"2 cube ρ={rho}"
     for k, name in enumerate(sol.scene.network_names):
-        mean = area_mean(e[k], sol.patches.area)
+        mean = area_mean(e[k], sol.coarse.patches.area)
         rep.add(Row(case, f"mean total irradiance, {name} source (lx)",
                     f"Φ/(S(1−ρ)) = {ref:.2f}", f"{mean:.3f}", pct(mean / ref - 1), "1 %",
                     abs(mean / ref - 1) <= 0.01, wall_cell(res, wall) if k == 0 else "",
-                    f"{sol.patches.n} patches" if k == 0 else ""))
+                    f"{sol.coarse.patches.n} patches" if k == 0 else ""))
     # the floor grid's indirect part, for information: not uniform in a cube (§9.2)
     g = res.grids["floor"]
     ind = sol.point_indirect[0][: len(g.points)]
@@ -303,44 +280,22 @@ def cube_furnace_case(out: Path, rho: float, patch_size: float, rep: Report,
         ([0, eps, 0], [0, 0, c], [c, 0, 0]),  # y = 0, +y
         ([0, c - eps, 0], [c, 0, 0], [0, 0, c]),  # y = c, −y
     ]
-    lum = "".join(f"""
-        [[luminaires]]
-        kind = "area"
-        name = "E{i}"
-        origin = {o}
-        u = {u}
-        v = {v}
-        flux_lm = {flux}
-        network = "all"
-    """ for i, (o, u, v) in enumerate(faces))
+    lum = "".join(table("[[luminaires]]", kind="area", name=f"E{i}", origin=o, u=u, v=v,
+                        flux_lm=flux, network="all") for i, (o, u, v) in enumerate(faces))
     pts, nrm = interior_points(16, 1.2)
     pts += c / 2
-    path = write_study(folder, f"furnace-rho{rho}", f"""
-        [study]
-        name = "cube furnace rho={rho}"
-        [materials.wall]
-        reflectance = {rho}
-        [[geometry]]
-        kind = "box"
-        min = [0, 0, 0]
-        max = [{c}, {c}, {c}]
-        normals = "inward"
-        material = "wall"
-        {lum}
-        [[grids]]
-        name = "inside"
-        kind = "points"
-        points = {toml_list(pts)}
-        normals = {toml_list(nrm)}
-        [solver]
-        patch_size = {patch_size}
-        gather_rays = {gather_rays}
-    """)
+    path = write_study(folder, f"furnace-rho{rho}", "".join([
+        table("[study]", name=f"cube furnace rho={rho}"),
+        table("[materials.wall]", reflectance=rho),
+        box([0, 0, 0], [c] * 3, "inward", "wall"), lum,
+        table("[[grids]]", name="inside", kind="points", points=rounded(pts),
+              normals=rounded(nrm)),
+        table("[solver]", patch_size=patch_size, gather_rays=gather_rays)]))
     res, wall = run(path)
     sol = res.lighting
     e = sol.patch_illuminance()[0]
     ref = exitance / (1 - rho)
-    mean = area_mean(e, sol.patches.area)
+    mean = area_mean(e, sol.coarse.patches.area)
     worst = e[np.argmax(np.abs(e - ref))]
     g = res.grids["inside"]
     tot = g.illuminance_lux
@@ -349,7 +304,7 @@ def cube_furnace_case(out: Path, rho: float, patch_size: float, rep: Report,
     rep.add(Row(case, "patch irradiance (lx), mean / worst", f"M/(1−ρ) = {ref:.2f}",
                 f"{mean:.2f} / {worst:.2f}", f"{pct(mean / ref - 1)} / {pct(worst / ref - 1)}",
                 "1 % / 3 %", abs(mean / ref - 1) <= 0.01 and abs(worst / ref - 1) <= 0.03,
-                wall_cell(res, wall), f"{sol.patches.n} patches"))
+                wall_cell(res, wall), f"{sol.coarse.patches.n} patches"))
     rep.add(Row(case, "16 interior points, any normal (lx), mean / worst", f"{ref:.2f}",
                 f"{tot.mean():.2f} / {worst_pt:.2f}",
                 f"{pct(tot.mean() / ref - 1)} / {pct(worst_pt / ref - 1)}", "1 % / 3 %",
@@ -369,54 +324,18 @@ ROOM_RHO = 0.5
 
 
 def room_study(folder: Path, patch_size: float, gather_rays: int, spacing: float) -> Path:
-    x, y, z = ROOM
-    (a, b, c), (d, e, f) = TABLE
-    return write_study(folder, "study", f"""
-        [study]
-        name = "furnished room vs Radiance"
-        [materials.grey]
-        reflectance = {ROOM_RHO}
-        [photometry.iso]
-        kind = "isotropic"
-        flux_lm = {LAMP_FLUX}
-        [[geometry]]
-        name = "room"
-        kind = "box"
-        min = [0, 0, 0]
-        max = [{x}, {y}, {z}]
-        normals = "inward"
-        material = "grey"
-        [[geometry]]
-        name = "table"
-        kind = "box"
-        min = [{a}, {b}, {c}]
-        max = [{d}, {e}, {f}]
-        normals = "outward"
-        material = "grey"
-        [[luminaires]]
-        name = "lamp"
-        photometry = "iso"
-        position = {list(LAMP)}
-        network = "n"
-        [[grids]]
-        name = "workplane"
-        kind = "plane"
-        origin = [0.5, 0.5, {WP_Z}]
-        u = [{x - 1.0}, 0, 0]
-        v = [0, {y - 1.0}, 0]
-        spacing = {spacing}
-        [[grids]]
-        name = "floor"
-        kind = "plane"
-        origin = [0.5, 0.5, 0.02]
-        u = [{x - 1.0}, 0, 0]
-        v = [0, {y - 1.0}, 0]
-        spacing = {spacing}
-        [solver]
-        patch_size = {patch_size}
-        gather_rays = {gather_rays}
-        cache = false
-    """)
+    x, y, _ = ROOM
+    plane = {"kind": "plane", "u": [x - 1.0, 0, 0], "v": [0, y - 1.0, 0], "spacing": spacing}
+    return write_study(folder, "study", "".join([
+        table("[study]", name="furnished room vs Radiance"),
+        table("[materials.grey]", reflectance=ROOM_RHO),
+        table("[photometry.iso]", kind="isotropic", flux_lm=LAMP_FLUX),
+        box([0, 0, 0], ROOM, "inward", "grey", name="room"),
+        box(TABLE[0], TABLE[1], "outward", "grey", name="table"),
+        table("[[luminaires]]", name="lamp", photometry="iso", position=list(LAMP), network="n"),
+        table("[[grids]]", name="workplane", origin=[0.5, 0.5, WP_Z], **plane),
+        table("[[grids]]", name="floor", origin=[0.5, 0.5, 0.02], **plane),
+        table("[solver]", patch_size=patch_size, gather_rays=gather_rays, cache=False)]))
 
 
 def _rad_box(name: str, lo, hi, inward: bool) -> str:
@@ -536,7 +455,7 @@ def radiance_case(out: Path, rep: Report, quick: bool):
                 note += (f" ({dark} in the table's shadow: lumijax max "
                          f"{np.max(np.abs(lj[~lit])):.2g} lx there)")
             if label.startswith("total"):
-                note += f"; {res.lighting.patches.n} patches, {gather} gather rays"
+                note += f"; {res.lighting.coarse.patches.n} patches, {gather} gather rays"
             time_cell = ""
             if times is not None:
                 time_cell = (f"lumijax {times[0]:.2f} / Radiance {times[1]:.2f}"
