@@ -82,9 +82,10 @@ def section_builders() -> list[Callable[[Study, Results, bool], list[ReportSecti
     """The builders of the sections other layers add, in order: each is called as
     ``builder(study, results, pictures)`` and returns its :class:`ReportSection` values (none
     when the study has nothing for it). A layer's report module adds its builder here."""
+    from ._compliance import compliance_sections
     from ._glare import glare_sections
 
-    return [glare_sections]
+    return [compliance_sections, glare_sections]
 
 
 def _grid_configs(study: Study) -> dict[str, _GridBase]:

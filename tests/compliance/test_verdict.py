@@ -158,3 +158,14 @@ def test_bad_compliance_references(office):
     with pytest.raises(ConfigError) as e:
         compliance_model(replace(study, config=cfg), res)
     assert e.value.key == "compliance.areas[0].reference" and "34.2" in e.value.message
+
+
+def test_report_opens_with_the_verdict(office, tmp_path):
+    from lumijax.report import write_report
+
+    study, res = office
+    path = tmp_path / "report.html"
+    write_report(study, res, path, pictures=False)
+    text = path.read_text()
+    assert text.index('id="compliance"') < text.index('id="summary"')
+    assert "not compliant" in text and "34.2" in text
