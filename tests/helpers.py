@@ -11,13 +11,30 @@ import jax.numpy as jnp
 import numpy as np
 from beartype import BeartypeConf, beartype
 
-__all__ = ["area_lamp", "box", "box_room", "central_difference", "lamp", "material", "mesh", "network",
-           "photometry", "plane_grid", "point_grid", "rectangle", "study_text", "table", "toml_value",
-           "typechecker"]
+__all__ = ["area_lamp", "box", "box_room", "central_difference", "lamp", "material", "mesh",
+           "network", "photometry", "pinhole_pixel", "plane_grid", "point_grid", "rectangle",
+           "study_text", "table", "toml_value", "typechecker"]
 
 #: The runtime checker pyproject's ``--jaxtyping-packages`` applies: beartype with PEP 484's
 #: numeric tower (an int is accepted where a float is annotated, as mypy reads it).
 typechecker = beartype(conf=BeartypeConf(is_pep484_tower=True))
+
+
+def pinhole_pixel(cam, p, size: tuple[int, int]) -> tuple[int, int]:
+    """(row, col) of world point ``p`` (m) in a ``size = (width, height)`` px image from camera
+    ``cam`` (``position``, ``target``, ``up``, ``fov_deg``: the vertical field of view): an
+    independent pinhole projection, so a picture test does not check the renderer against
+    itself."""
+    pos, tgt = np.array(cam.position), np.array(cam.target)
+    f = (tgt - pos) / np.linalg.norm(tgt - pos)
+    r = np.cross(f, cam.up)
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    d = np.asarray(p, float) - pos
+    t = np.tan(np.radians(cam.fov_deg) / 2)
+    x, y = (d @ r) / (d @ f) / t, (d @ u) / (d @ f) / t  # y in [-1, 1] over the height
+    w, h = size
+    return int(round(h / 2 - y * h / 2 - 0.5)), int(round(w / 2 + x * h / 2 - 0.5))
 
 
 def central_difference(f: Callable, x, h: float = 1e-6,

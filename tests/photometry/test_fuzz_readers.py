@@ -133,20 +133,20 @@ def _fuzz(scratch, seed: Path, mutations) -> str:
     return check(path)
 
 
-@pytest.mark.skipif(not IES_FILES, reason="the shared photometry folder is not available")
-@FUZZ
-@given(seed=st.sampled_from(IES_FILES or [Path("none")]),
-       mutations=st.lists(MUTATION, min_size=1, max_size=4))
-def test_fuzz_ies_reader(scratch, seed, mutations):
-    _fuzz(scratch, seed, mutations)
+def _fuzz_test(files):
+    """A fuzz test of one reader: 1 to 4 mutations of one of its real ``files``."""
+    @pytest.mark.skipif(not files, reason="the shared photometry folder is not available")
+    @FUZZ
+    @given(seed=st.sampled_from(files or [Path("none")]),
+           mutations=st.lists(MUTATION, min_size=1, max_size=4))
+    def test(scratch, seed, mutations):
+        _fuzz(scratch, seed, mutations)
+
+    return test
 
 
-@pytest.mark.skipif(not LDT_FILES, reason="the shared photometry folder is not available")
-@FUZZ
-@given(seed=st.sampled_from(LDT_FILES or [Path("none")]),
-       mutations=st.lists(MUTATION, min_size=1, max_size=4))
-def test_fuzz_ldt_reader(scratch, seed, mutations):
-    _fuzz(scratch, seed, mutations)
+test_fuzz_ies_reader = _fuzz_test(IES_FILES)
+test_fuzz_ldt_reader = _fuzz_test(LDT_FILES)
 
 
 # Generated files: a valid-looking header and a numeric section of arbitrary tokens, so the

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import pinhole_pixel
 
 pytest.importorskip("pyvista")
 
@@ -79,20 +80,6 @@ def _camera(**kw):
                   up=(0.0, 1.0, 0.0), fov_deg=40.0, size=SIZE, **kw)
 
 
-def _pixel(cam: Camera, p):
-    """(row, col) of world point p: an independent pinhole projection."""
-    pos, tgt = np.array(cam.position), np.array(cam.target)
-    f = (tgt - pos) / np.linalg.norm(tgt - pos)
-    r = np.cross(f, cam.up)
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    d = np.asarray(p, float) - pos
-    t = np.tan(np.radians(cam.fov_deg) / 2)
-    x, y = (d @ r) / (d @ f) / t, (d @ u) / (d @ f) / t  # y in [-1, 1] over the height
-    w, h = cam.size
-    return int(round(h / 2 - y * h / 2 - 0.5)), int(round(w / 2 + x * h / 2 - 0.5))
-
-
 def test_falsecolour_pixel_matches_the_value_there():
     plate = Plate()
     value = 20.0 + 18.0 * plate.points[:, 0]  # 20 .. 200 cd/m², linear in x
@@ -102,11 +89,11 @@ def test_falsecolour_pixel_matches_the_value_there():
     assert (lo, hi) == (0.0, 250.0)
     img = img.astype(float) / 255.0
     for x, y in [(0.7, 1.3), (2.2, 4.1), (5.0, 3.3), (7.9, 0.8), (9.3, 5.2)]:
-        row, col = _pixel(cam, [x, y, 0.0])
+        row, col = pinhole_pixel(cam, [x, y, 0.0], cam.size)
         expected = lux_to_rgb(20.0 + 18.0 * x, 0.0, 250.0, "linear")
         np.testing.assert_allclose(img[row, col], expected, atol=0.03, err_msg=f"{x, y}")
     # off the plate: the white page
-    row, col = _pixel(cam, [-0.4, 3.0, 0.0])
+    row, col = pinhole_pixel(cam, [-0.4, 3.0, 0.0], cam.size)
     np.testing.assert_allclose(img[row, col], 1.0, atol=0.01)
 
 
@@ -118,9 +105,9 @@ def test_falsecolour_log_scale_and_iso_lines():
                                      frame=False)
     img = img.astype(float) / 255.0
     # 10 (the log-middle) has the colour-map's middle colour; the iso-line at x = 5 is black
-    row, col = _pixel(cam, [3.0, 2.0, 0.0])
+    row, col = pinhole_pixel(cam, [3.0, 2.0, 0.0], cam.size)
     np.testing.assert_allclose(img[row, col], lux_to_rgb(10 ** 0.6, 1, 100, "log"), atol=0.03)
-    row, col = _pixel(cam, [5.0, 2.0, 0.0])
+    row, col = pinhole_pixel(cam, [5.0, 2.0, 0.0], cam.size)
     strip = img[row, col - 2: col + 3]
     assert strip.sum(axis=1).min() < 0.3, strip
 
@@ -156,7 +143,7 @@ def test_realistic_view_exposure_tone_and_stops():
     lum = 40.0
     img, ev = render_realistic(UniformPlate(lum), cam, [1.0])
     assert ev == pytest.approx(ev100(lum))  # metered on the only (uniform) luminance
-    row, col = _pixel(cam, [5.0, 3.0, 0.0])
+    row, col = pinhole_pixel(cam, [5.0, 3.0, 0.0], cam.size)
     expected = _srgb(_filmic(np.full(3, lum / (1.2 * 2**ev))))  # neutral: R = G = B
     np.testing.assert_allclose(img[row, col] / 255.0, expected, atol=1.5 / 255)
     # twice the luminance one stop down is the same picture; twice at the same EV is brighter

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import pinhole_pixel
 
 pytest.importorskip("pyvista")
 
@@ -20,19 +21,6 @@ def viewer(two_rooms):
     v = build_viewer(study, results, off_screen=True, window_size=(640, 400))
     yield v
     v.plotter.close()
-
-
-def _pixel(cam, p, size):
-    pos, tgt = np.array(cam.position), np.array(cam.target)
-    f = (tgt - pos) / np.linalg.norm(tgt - pos)
-    r = np.cross(f, cam.up)
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    d = np.asarray(p, float) - pos
-    t = np.tan(np.radians(cam.fov_deg) / 2)
-    x, y = (d @ r) / (d @ f) / t, (d @ u) / (d @ f) / t
-    w, h = size
-    return int(round(h / 2 - y * h / 2 - 0.5)), int(round(w / 2 + x * h / 2 - 0.5))
 
 
 def test_slider_at_zero_darkens_exactly_its_network(viewer):
@@ -52,8 +40,8 @@ def test_slider_at_zero_darkens_exactly_its_network(viewer):
     # the picture: a floor point of each room, found by an independent projection
     img1 = viewer.screenshot()
     size = (img0.shape[1], img0.shape[0])
-    rl, cl = _pixel(viewer.camera, [1.0, 2.2, 0.0], size)
-    rr, cr = _pixel(viewer.camera, [6.5, 2.2, 0.0], size)
+    rl, cl = pinhole_pixel(viewer.camera, [1.0, 2.2, 0.0], size)
+    rr, cr = pinhole_pixel(viewer.camera, [6.5, 2.2, 0.0], size)
     assert img0[rl, cl].max() > 20 and img1[rl, cl].max() == 0
     np.testing.assert_array_equal(img1[rr, cr], img0[rr, cr])
     # back up: the picture is the same as before (the exposure never moved)
