@@ -39,7 +39,8 @@ def test_quick_writes_the_numbers_only_with_the_photometric_solve(write_study, t
     assert not any(n.startswith("images/") or n == "report.html" for n in names)
     q = json.loads((quick / "results.json").read_text())
     f = json.loads((full / "results.json").read_text())
-    assert q["solver"]["spectral_samples"] == 0 and "wavelengths_nm" not in q["solver"]
+    # the photometric solve: one "wavelength" and none named
+    assert q["solver"]["spectral_samples"] == 1 and "wavelengths_nm" not in q["solver"]
     assert f["solver"]["spectral_samples"] == 16
     assert "xyz" not in q["grids"]["floor"] and "xyz" in f["grids"]["floor"]
     # a grey room: its lux does not depend on the wavelengths it was solved at
