@@ -7,33 +7,12 @@ from dataclasses import dataclass
 
 __all__ = ["LuminousOpening", "decode_ies_opening", "encode_ies_opening"]
 
-SHAPES = (
-    "point",
-    "rectangle",
-    "box",
-    "disk",
-    "circle",
-    "ellipse",
-    "sphere",
-    "ellipsoid",
-    "vertical_cylinder",
-    "vertical_elliptical_cylinder",
-    "horizontal_cylinder_along",
-    "horizontal_cylinder_across",
-    "vertical_circle",
-    "vertical_ellipse",
-)
+# outlines round from below: length and width are the ellipse's diameters (area π/4·L·W)
+_ROUND = ("disk", "circle", "ellipse", "sphere", "ellipsoid", "vertical_cylinder",
+          "vertical_elliptical_cylinder")
 
-
-_ROUND = (
-    "disk",
-    "circle",
-    "ellipse",
-    "sphere",
-    "ellipsoid",
-    "vertical_cylinder",
-    "vertical_elliptical_cylinder",
-)
+SHAPES = ("point", "rectangle", "box", *_ROUND, "horizontal_cylinder_along",
+          "horizontal_cylinder_across", "vertical_circle", "vertical_ellipse")
 
 
 @dataclass(frozen=True)
