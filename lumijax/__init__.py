@@ -7,6 +7,7 @@ frames and aim angles.
 
 from ._study import Study as Study, compute as compute, load_study as load_study
 from ._version import __version__ as __version__
+from .compliance import Compliance as Compliance
 from .design import Design as Design
 from .errors import (
     ConfigError as ConfigError,
