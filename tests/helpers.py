@@ -1,5 +1,10 @@
 """Test helpers shared across areas (importable as ``helpers``: tests/ is on pytest's path
-through tests/conftest.py), and the runtime type checker of the test run."""
+through tests/conftest.py), and the runtime type checker of the test run.
+
+A test writes its study with the builders below (``study_text(material(...), box(...),
+lamp(...), plane_grid(...), table("solver", ...))``) rather than as TOML text: each builder
+writes the lines a hand-written study would, so one study is a few lines and the studies of
+different tests do not repeat one another."""
 
 from __future__ import annotations
 
