@@ -257,16 +257,50 @@ def _build_mesh(pv, points: np.ndarray, lux: np.ndarray, shape, view: View):
     return mesh
 
 
+#: A structured grid's iso-lux lines are traced on a smoothed copy of its lux when the part a
+#: 1-2-1 filter removes has an RMS above this fraction of the lux range (Monte Carlo noise in
+#: the gathered light); the colours always show the lux as computed.
+NOISE_FRACTION = 0.01
+
+
+def _smooth(field: np.ndarray) -> np.ndarray:
+    """One pass of the separable 1-2-1 (binomial) filter over a (nu, nv) field, edges repeated."""
+    out = field
+    for axis in (0, 1):
+        pad = np.pad(out, [(1, 1) if a == axis else (0, 0) for a in (0, 1)], mode="edge")
+        lo = np.take(pad, np.arange(0, out.shape[axis]), axis=axis)
+        mid = np.take(pad, np.arange(1, out.shape[axis] + 1), axis=axis)
+        hi = np.take(pad, np.arange(2, out.shape[axis] + 2), axis=axis)
+        out = 0.25 * lo + 0.5 * mid + 0.25 * hi
+    return out
+
+
+def contour_field(lux: np.ndarray, shape) -> np.ndarray:
+    """The field the iso-lux lines follow: ``lux`` itself, or, on a noisy structured grid
+    (:data:`NOISE_FRACTION`), ``lux`` smoothed once by the 1-2-1 filter, so that noise does not
+    break a line into rings and wiggles."""
+    lux = np.asarray(lux, np.float64)
+    if shape is None or min(shape) < 3 or np.ptp(lux) <= 0:
+        return lux
+    field = lux.reshape(tuple(int(x) for x in shape))
+    smooth = _smooth(field)
+    noise = float(np.sqrt(np.mean((field - smooth) ** 2)))
+    return smooth.ravel() if noise > NOISE_FRACTION * float(np.ptp(lux)) else lux
+
+
 def _label_positions(pv, mesh, level: float, min_points: int) -> list[np.ndarray]:
-    line = mesh.contour([level], scalars="lux")
+    line = mesh.contour([level], scalars="contour")
     if line.n_points == 0:
         return []
     parts = line.connectivity("all")
     ids = np.asarray(parts.point_data["RegionId"])
+    # a label per line that matters: not on fragments much shorter than the level's longest
+    regions, counts = np.unique(ids, return_counts=True)
+    least = max(min_points, int(0.25 * counts.max()))
     out = []
-    for rid in np.unique(ids):
+    for rid, count in zip(regions, counts, strict=True):
         pts = np.asarray(parts.points)[ids == rid]
-        if len(pts) < min_points:
+        if count < least:
             continue
         mid = pts[np.argmin(np.linalg.norm(pts - pts.mean(axis=0), axis=1))]
         out.append(mid)
@@ -361,6 +395,7 @@ def falsecolour_map(
     # A log scale maps log10(lux): lux below vmin (zeros in shadow) take the lowest colour.
     if scale == "log":
         mesh.point_data["lux"] = np.maximum(e, vmin)
+    mesh.point_data["contour"] = contour_field(np.asarray(mesh.point_data["lux"]), shape)
 
     was_off_screen = pv.OFF_SCREEN
     pv.OFF_SCREEN = True
@@ -438,7 +473,7 @@ def _draw(pv, pl, mesh, view, p, e, title, levels, scale, cmap, clim, labels) ->
         bar.SetNumberOfLabels(len(levels))
 
     if levels:
-        lines = mesh.contour(levels, scalars="lux")
+        lines = mesh.contour(levels, scalars="contour")
         if lines.n_points:
             # Lift the lines a hair towards the camera so the surface never hides them.
             lines.points = np.asarray(lines.points) + view.normal * 1e-4 * view.parallel_scale

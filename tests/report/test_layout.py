@@ -140,3 +140,27 @@ def test_map_draws_the_luminaires_over_it(tmp_path):
     (c0, r1), (c1, r0) = view.pixel(pts.min(axis=0)), view.pixel(pts.max(axis=0))
     inside = img[int(r0) + 2:int(r1) - 2, int(c0) + 2:int(c1) - 2].sum(axis=-1) < 0.3
     assert ndimage.label(inside)[1] == 2
+
+
+def test_iso_lux_lines_follow_the_smoothed_field_on_noisy_grids():
+    from lumijax.report._falsecolour import contour_field
+
+    nu, nv = 40, 20
+    U, _ = np.meshgrid(np.linspace(0, 1, nu), np.linspace(0, 1, nv), indexing="ij")
+    clean = (100 + 400 * U).ravel()
+    noisy = clean + np.random.default_rng(1).normal(0, 15, clean.shape)  # ~ 1.5 cells of slope
+
+    def rows_crossing_once(field, level=300.0):
+        f = np.asarray(field).reshape(nu, nv) - level
+        return np.mean((np.diff(np.sign(f), axis=0) != 0).sum(axis=0) == 1)
+
+    # a clean field is contoured as it is; a noisy one breaks the 300 lx line into wiggles and
+    # rings (rows crossing it more than once) until it is smoothed
+    assert np.array_equal(contour_field(clean, (nu, nv)), clean)
+    assert rows_crossing_once(noisy) < 0.8
+    assert rows_crossing_once(contour_field(noisy, (nu, nv))) == 1.0
+    # the 1-2-1 filter keeps a linear ramp inside the grid: the line stays where it was
+    smooth = contour_field(noisy, (nu, nv)).reshape(nu, nv)
+    assert np.abs(smooth - noisy.reshape(nu, nv)).mean() < 15
+    assert np.abs(smooth[1:-1].mean(axis=1) - clean.reshape(nu, nv)[1:-1].mean(axis=1)).max() < 8
+    assert np.array_equal(contour_field(noisy, None), noisy)  # unstructured: as computed
