@@ -5,10 +5,11 @@
     python benchmarks/courtyard.py --operator-patches 0   # one level (the dense P² operator)
 
 Generates the study (studies/courtyard/make_courtyard.py) into a temporary folder, then runs the
-stages of ``lumijax.compute`` one after the other in this process, as ``solve_lighting`` does:
-load (config + scene), direct light on the grid points, mesh, partition, operator build, direct
-light on the patches, spectral setup + gather rays, the batched solve of every network, and
-writing results. With ``--operator-patches`` (default: the full study's, two levels,
+stages of ``lumijax.compute`` one after the other in this process: load (config + scene), then
+the pipeline's own stage functions (``lumijax.lighting._stages``, in ``solve_lighting``'s
+order): direct light on the grid points, mesh, memory bound + partition + operator build,
+direct light on the patches, spectral setup, gather rays, the batched solve of every network,
+and writing results. With ``--operator-patches`` (default: the full study's, two levels,
 docs/radiosity.md) the operator and the solve run on coarse elements and the fine stages follow:
 direct light on the fine patches (the elements get its area means), the coarse solve, then the
 fine gather rays and the reflection onto the fine patches, and patches.vtp of the fine level.
@@ -87,19 +88,7 @@ def main(argv=None) -> None:
     gen.write_study(c, folder / "study.toml", folder / "assets", "benchmark")
 
     from lumijax import load_study
-    from lumijax.direct import direct_illuminance
-    from lumijax.lighting import LightingSolution
-    from lumijax.lighting._pipeline import _emission_groups, _grouped_scene, auto_patch_size
-    from lumijax.lighting._solution import shoot
-    from lumijax.lighting._spectral import SpectralSetup
-    from lumijax.radiosity import build_operator, mesh_patches, partition
-    from lumijax.radiosity._final_gather import (
-        build_fine_gather,
-        element_direct,
-        fine_reflectance,
-        reflect_onto_fine,
-    )
-    from lumijax.radiosity._gather import build_gather
+    from lumijax.lighting import SolverSettings, _stages as stg
 
     sampler = _Sampler()
     sampler.start()
@@ -128,86 +117,63 @@ def main(argv=None) -> None:
     sc = study.scene
     points = np.concatenate([g.points for g in sc.grids])
     normals = np.concatenate([g.normals for g in sc.grids])
-    group_of, groups = _emission_groups(sc)
-    gscene = _grouped_scene(sc, group_of, len(groups))
+    settings = SolverSettings(target_patches=c.target_patches, max_block=args.max_block,
+                              gather_rays=c.gather_rays, spectral_samples=c.spectral_samples,
+                              operator_patches=c.operator_patches)
+    quiet = lambda done, total: None  # noqa: E731
+    emission = stg.group_emission(sc)
     st.update(luminaires=len(sc.luminaires), networks=len(sc.networks),
-              groups=len(groups), points=len(points), triangles=len(sc.triangles))
-    dpts = stage("direct light, grid points",
-                 lambda: direct_illuminance(gscene, points, normals),
-                 lambda d: f"{len(points):,} points, {d.shadow_rays:,} shadow rays")
-    tri = sc.triangles
-    size = auto_patch_size(float(tri.areas.sum()), c.target_patches)
-    patches = stage("mesh", lambda: mesh_patches(tri.vertices, tri.material, tri.group,
-                                                 patch_size=size),
-                    lambda pt: f"{pt.n:,} patches of ~{size:.2f} m")
-    st["patches"] = patches.n
-    fine = None
-    if c.operator_patches:
-        esize = auto_patch_size(float(tri.areas.sum()), c.operator_patches)
-        fine = patches
-        patches = stage("mesh elements", lambda: mesh_patches(
-            tri.vertices, tri.material, tri.group, patch_size=esize),
-            lambda pt: f"{pt.n:,} elements of ~{esize:.2f} m (operator_patches "
-                       f"{c.operator_patches:,})")
-        st["elements"] = patches.n
-    caster = sc.raycaster
-    part = stage("partition", lambda: partition(patches, max_block=args.max_block,
-                                                occluders=caster),
-                 lambda pa: _part_note(pa))
-    op = stage("operator build", lambda: build_operator(patches, part, caster,
-                                                        dtype=np.float32),
-               lambda o: f"{o.nbytes / 2**30:.2f} GiB stored ({o.lowrank_nbytes / 2**30:.2f} low "
-                         f"rank); {o.info['near_pairs']:,} near patch pairs, "
-                         f"{o.info['lowrank_pairs']}/{o.info['lowrank_candidates']} block pairs "
-                         f"low rank, {o.info['rays']:,} rays ({o.info['ray_time_s']:.0f} s)")
-    st["operator_bytes"] = op.nbytes
-    if fine is None:
-        dpatch = stage("direct light, patches",
-                       lambda: direct_illuminance(gscene, patches.centroid, patches.normal),
-                       lambda d: f"{d.shadow_rays:,} shadow rays")
-    else:
-        dfine, dpatch = stage("direct light, fine patches (+ element means)",
-                              lambda: element_direct(gscene, fine, patches),
-                              lambda d: f"{fine.n:,} patches, {d[1].shadow_rays:,} shadow rays")
-    spectral = stage("spectral setup", lambda: SpectralSetup.build(sc, patches.material,
-                                                                   c.spectral_samples),
-                     lambda s: f"{s.n} samples")
-    gather = stage("gather rays", lambda: build_gather(points, normals, patches, caster,
-                                                       rays=c.gather_rays),
-                   lambda g: f"{c.gather_rays} rays/point")
-    k = len(sc.networks)
-    rho = np.array([m.luminous_reflectance for m in sc.materials])[patches.material]
-    blank = LightingSolution(
-        scene=sc, points=points, normals=normals, patches=patches, transport=op,
-        gather=gather, spectral=spectral, rho=rho, patch_direct=np.zeros((k, patches.n)),
-        radiosity=np.zeros((k, patches.n)), radiosity_xyz=None, point_direct=dpts.by_network,
-        point_indirect=np.zeros_like(dpts.by_network), point_xyz=None,
-    )
-    shot = stage("solve (all networks) + gather",
-                 lambda: shoot(blank, dpatch.by_network, [g[1] for g in groups],
-                               dpts.by_network),
-                 lambda s: f"{len(groups)} emission groups × {spectral.n} λ = "
-                           f"{len(groups) * max(spectral.n, 1)} columns, "
-                           f"{int(s.result.iterations)} iterations")
-    lighting, b_elements = None, shot.value
-    if fine is not None:
-        fg = stage("fine gather rays", lambda: build_fine_gather(fine, patches, caster,
-                                                                rays=c.gather_rays),
-                   lambda g: f"{fine.n:,} patches × {c.gather_rays} rays, {len(g.weight):,} "
-                             f"links ({(g.point.nbytes + g.patch.nbytes + g.weight.nbytes) / 2**20:.0f} MiB)")
-        frho = fine_reflectance(spectral, patches, fine)
-        weights = [spectral.weights(g[1]) for g in groups]
-        fb, fxyz, find = stage("fine reflect (gather B of the elements)",
-                               lambda: reflect_onto_fine(fg, frho, dfine.by_network, weights,
-                                                         b_elements),
-                               lambda r: f"{r[0].shape[0]} groups × {fine.n:,} patches")
-        lighting = dataclasses.replace(
-            blank, patch_direct=dpatch.by_network, radiosity=shot.radiosity,
-            radiosity_xyz=shot.radiosity_xyz, fine_patches=fine, fine_gather=fg, fine_rho=frho,
-            fine_patch_direct=dfine.by_network, fine_patch_indirect=find, fine_radiosity=fb,
-            fine_radiosity_xyz=fxyz)
-        del fb, fxyz, find
-    del shot
+              groups=len(emission.spectra), points=len(points), triangles=len(sc.triangles))
+    direct = stage("direct light, grid points",
+                   lambda: stg.light_points(emission, points, normals, quiet),
+                   lambda d: f"{len(points):,} points, {d.shadow_rays:,} shadow rays")
+    meshed = stage("mesh", lambda: stg.mesh(sc, emission, settings),
+                   lambda m: f"{(m.fine or m.patches).n:,} patches of ~{m.patch_size_m:.2f} m"
+                             + ("" if m.fine is None else f", {m.patches.n:,} elements of "
+                                f"~{m.element_size_m:.2f} m (operator_patches "
+                                f"{c.operator_patches:,})"))
+    st["patches"] = (meshed.fine or meshed.patches).n
+    if meshed.fine is not None:
+        st["elements"] = meshed.patches.n
+    transport = stage(
+        "memory bound + partition + operator build",
+        lambda: stg.build_transport(sc, meshed, settings),
+        lambda tr: f"bound {tr.bound_s:.1f} s, partition {tr.partition_s:.1f} s; "
+                   f"{tr.operator.nbytes / 2**30:.2f} GiB stored "
+                   f"({tr.operator.lowrank_nbytes / 2**30:.2f} low rank); "
+                   f"{tr.operator.info['near_pairs']:,} near patch pairs, "
+                   f"{tr.operator.info['lowrank_pairs']}/{tr.operator.info['lowrank_candidates']}"
+                   f" block pairs low rank, {tr.operator.info['rays']:,} rays "
+                   f"({tr.operator.info['ray_time_s']:.0f} s)")
+    st["operator_bytes"] = transport.operator.nbytes
+    direct = stage("direct light, patches" if meshed.fine is None else
+                   "direct light, fine patches (+ element means)",
+                   lambda: stg.light_patches(direct, emission, meshed, quiet),
+                   lambda d: f"{d.shadow_rays - direct.shadow_rays:,} shadow rays")
+    sampling = stage("spectral setup", lambda: stg.sample_spectra(sc, meshed, settings),
+                     lambda s: f"{s.spectral.n} samples")
+    rays = stage("gather rays", lambda: stg.cast_gather_rays(points, normals, meshed, sc,
+                                                            settings, quiet),
+                 lambda g: f"{c.gather_rays} rays/point")
+    radiosity = stage("solve (all networks) + gather",
+                      lambda: stg.solve(sc, points, normals, emission, direct, meshed,
+                                        transport, sampling, rays, settings),
+                      lambda r: f"{len(emission.spectra)} emission groups × "
+                                f"{sampling.spectral.n} λ, "
+                                f"{r.stats()['columns_solved']} columns solved, "
+                                f"{r.stats()['iterations']} iterations")
+    lighting = None
+    if meshed.fine is not None:
+        gathered = stage("final gather (fine gather rays + reflect)",
+                         lambda: stg.gather_fine(sc, emission, direct, meshed, sampling,
+                                                 radiosity, settings),
+                         lambda g: f"rays {g.fine.timing_s['fine_gather_rays']:.1f} s, "
+                                   f"{len(g.fine.gather.weight):,} links, reflect "
+                                   f"{g.fine.timing_s['fine_reflect']:.1f} s")
+        lighting = stg.assemble(sc, points, normals, emission, direct, meshed, transport,
+                                sampling, rays, radiosity, gathered, settings)
+        del gathered
+    radiosity = None  # the solve's arrays freed before writing
 
     from lumijax import compute, write_results
 
@@ -220,17 +186,12 @@ def main(argv=None) -> None:
     if lighting is not None:
         from lumijax.report._vtk import write_patches_vtp
 
-        k = len(groups)
+        k = len(sc.networks)
         stage("write patches.vtp (fine)",
               lambda: write_patches_vtp(lighting, np.ones(k), out / "patches.vtp"),
               lambda path: f"{path.stat().st_size / 2**20:.0f} MiB")
     sampler.running = False
     _table(rows, c, st)
-
-
-def _part_note(pa) -> str:
-    return (f"{pa.n_blocks} blocks, {len(pa.pairs)} visible block pairs of "
-            f"{pa.stats.get('candidate_pairs', '?')}")
 
 
 def _table(rows, c, st) -> None:

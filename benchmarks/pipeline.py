@@ -142,12 +142,12 @@ def main(argv=None) -> int:
     cols = len(sc.networks) * max(sol.spectral.n, 1)
     print(f"machine: {platform.platform()}, nproc {_nproc()}; lumijax {lumijax.__version__}")
     print(f"{rooms} rooms, {len(sc.triangles)} triangles, {n_lum} luminaires on "
-          f"{len(sc.networks)} networks, {sol.patches.n} patches, {n_pts} grid points, "
+          f"{len(sc.networks)} networks, {sol.coarse.patches.n} patches, {n_pts} grid points, "
           f"{cols} solve columns ({len(sc.networks)} networks × {sol.spectral.n} wavelengths)")
     rows = [
         ("scene (parse TOML + build)", f"{t_scene:.2f}", f"{n_lum} luminaires"),
         ("direct light, grid points", f"{tm['direct_points']:.2f}", f"{n_pts} points"),
-        ("mesh", f"{tm['mesh']:.2f}", f"{sol.patches.n} patches"),
+        ("mesh", f"{tm['mesh']:.2f}", f"{sol.coarse.patches.n} patches"),
         ("partition (block culling rays)", f"{tm.get('partition', float('nan')):.2f}", ""),
         ("operator build", f"{tm['operator']:.2f}",
          f"{sol.transport.info['nonzeros'] / 1e6:.0f} M non-zeros, "
@@ -176,7 +176,7 @@ def main(argv=None) -> int:
         times.append(time.perf_counter() - t0)
     t_dim = float(np.median(times))
     _table("Dimmer re-evaluation (median of 30)", ["values", "ms", "goal ms", "ratio to goal"],
-           [(f"{sol.patches.n} patches + {n_pts} points", f"{1e3 * t_dim:.2f}", "50",
+           [(f"{sol.coarse.patches.n} patches + {n_pts} points", f"{1e3 * t_dim:.2f}", "50",
              f"{t_dim / 0.05:.3f}")])
 
     # 3. incremental update of one luminaire vs a full re-solve with the operator reused

@@ -69,7 +69,7 @@ def main(argv=None):
             results = compute(study, cache_dir=Path(tmp) / "cache")
             m = measure(study, results)
             views = sum(v for k, v in m.items() if k.startswith("view:"))
-            rows.append((label, len(results.grids), results.lighting.patches.n, views,
+            rows.append((label, len(results.grids), results.lighting.coarse.patches.n, views,
                          m["grid_maps"], m["photometry"], m["total"], m["bytes"]))
     print(f"machine: {platform.machine()} {platform.system()}, python {platform.python_version()}")
     print("| study | grids | patches | views (s) | grid maps (s) | photometry (s) | total (s) "

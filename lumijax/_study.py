@@ -16,7 +16,7 @@ import numpy as np
 from .config import StudyConfig, load_config
 from .design import Design
 from .lighting import LightingSolution, SolverSettings, solve_lighting
-from .lighting._solution import float64_scope
+from .lighting._solution import Level, float64_scope
 from .results import GridResult, Results
 from .scene import Scene, build_scene
 
@@ -267,10 +267,9 @@ def _unshadowed(scene, points, normals, progress) -> LightingSolution:
 
     report = None if progress is None else (lambda d, t: progress("direct light", d, t))
     d = direct_illuminance(scene, points, normals, shadows=False, progress=report)
-    k = len(scene.networks)
     return LightingSolution(
-        scene=scene, points=points, normals=normals, patches=None, transport=None, gather=None,
-        spectral=None, rho=None, patch_direct=np.zeros((k, 0)), radiosity=np.zeros((k, 0)),
-        radiosity_xyz=None, point_direct=d.by_network, point_indirect=np.zeros_like(d.by_network),
-        point_xyz=None, stats={"shadow_rays": 0, "shadows": False},
+        scene=scene, points=points, normals=normals, coarse=Level.unlit(len(scene.networks)),
+        transport=None, spectral=None, point_direct=d.by_network,
+        point_indirect=np.zeros_like(d.by_network), point_xyz=None,
+        stats={"shadow_rays": 0, "shadows": False},
     )

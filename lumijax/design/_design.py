@@ -24,6 +24,7 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from ..errors import ConfigError
+from ..scene import Scene
 
 __all__ = ["Design"]
 
@@ -90,10 +91,10 @@ class Design(eqx.Module):
         self.level = _host(level, n, "luminaires.level")
 
     @classmethod
-    def of(cls, scene) -> Design:
+    def of(cls, scene: Scene) -> Design:
         """The design a :class:`lumijax.scene.Scene` is placed at."""
         lums = scene.luminaires
-        levels = getattr(scene, "levels", None)
+        levels = scene.levels
         return cls(
             [nw.dimmer for nw in scene.networks], [lum.tilt for lum in lums],
             [lum.pan for lum in lums], [lum.spin for lum in lums],
@@ -112,8 +113,8 @@ class Design(eqx.Module):
                                   f"{', '.join(self.networks)}", key="design.dimmers")
             changes["dimmers"] = [d.get(n, v) for n, v in zip(self.networks, self.dimmers,
                                                                strict=True)]
-        fields = {f: getattr(self, f) for f in ("dimmers", "tilt_deg", "pan_deg", "spin_deg",
-                                                "level")}
+        fields = {"dimmers": self.dimmers, "tilt_deg": self.tilt_deg, "pan_deg": self.pan_deg,
+                  "spin_deg": self.spin_deg, "level": self.level}
         unknown = sorted(set(changes) - set(fields))
         if unknown:
             raise ConfigError(f"a Design has no field {unknown[0]!r}; fields: "
@@ -142,5 +143,6 @@ class Design(eqx.Module):
         """Whether ``other`` has the same aims and levels (exactly): then light at ``other``
         is the superposition of the per-network light at dimmer 1, no recomputation."""
         return self.same_study(other) and all(
-            np.array_equal(np.asarray(getattr(self, f)), np.asarray(getattr(other, f)))
-            for f in ("tilt_deg", "pan_deg", "spin_deg", "level"))
+            np.array_equal(np.asarray(a), np.asarray(b))
+            for a, b in ((self.tilt_deg, other.tilt_deg), (self.pan_deg, other.pan_deg),
+                         (self.spin_deg, other.spin_deg), (self.level, other.level)))

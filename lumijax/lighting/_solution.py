@@ -17,9 +17,8 @@ Changing one luminaire re-shoots only its difference (paper section 6): see
 
 A solution holds its light on patches as :class:`Level` records: ``coarse``, the operator's
 patches (elements), and ``fine``, the finer patches a two-level solve gathered from them
-(docs/radiosity.md, "Two levels"; None with one level). The flat names of before
-(``sol.radiosity``, ``sol.fine_patches``, ...) remain as read-only properties and constructor
-keywords during the transition.
+(docs/radiosity.md, "Two levels"; None with one level): ``sol.coarse.radiosity``,
+``sol.fine.patches``, and ``sol.display`` for the level to show and write.
 """
 
 from __future__ import annotations
@@ -28,7 +27,7 @@ import contextlib
 import dataclasses
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import NamedTuple, TypeVar
 
 import jax
 import jax.numpy as jnp
@@ -36,15 +35,15 @@ import numpy as np
 from jaxtyping import Float
 
 from ..direct import direct_illuminance
+from ..radiosity import Patches, RadiositySolution, TransportOperator
 from ..radiosity._gather import GatherOperator
+from ..scene import Scene
+from ..spectral import Spectrum
 from ._spectral import SpectralSetup, solve_spectral
 
-if TYPE_CHECKING:
-    from ..radiosity import Patches, TransportOperator
-    from ..scene import Scene
-    from ..spectral import Spectrum
-
 __all__ = ["LightingSolution", "Level", "float64_scope"]
+
+_T = TypeVar("_T")
 
 
 @contextlib.contextmanager
@@ -97,26 +96,14 @@ class Level:
     radiosity_xyz: Float[np.ndarray, "net 3 patches"] | None = None
     patch_indirect: Float[np.ndarray, "net patches"] | None = None
 
-
-# The flat constructor keywords and attributes of before, by level and Level field.
-_COARSE = {"patches": "patches", "gather": "gather", "rho": "rho",
-           "patch_direct": "patch_direct", "radiosity": "radiosity",
-           "radiosity_xyz": "radiosity_xyz"}
-_FINE = {"fine_patches": "patches", "fine_gather": "gather", "fine_rho": "rho",
-         "fine_patch_direct": "patch_direct", "fine_patch_indirect": "patch_indirect",
-         "fine_radiosity": "radiosity", "fine_radiosity_xyz": "radiosity_xyz"}
+    @classmethod
+    def unlit(cls, networks: int) -> Level:
+        """The level of a solution without inter-reflection: no patches, nothing on them."""
+        return cls(patches=None, gather=None, rho=None, patch_direct=np.zeros((networks, 0)),
+                   radiosity=np.zeros((networks, 0)))
 
 
-def _forward(level: str, name: str):
-    def get(self):
-        lv = getattr(self, level)
-        return None if lv is None else getattr(lv, name)
-
-    get.__doc__ = f"``{level}.{name}`` (the flat name of before)."
-    return property(get)
-
-
-@dataclass(frozen=True, eq=False, init=False)
+@dataclass(frozen=True, eq=False)
 class LightingSolution:
     """Per-network light on patches and calculation points, at dimmer 1.
 
@@ -156,71 +143,10 @@ class LightingSolution:
     stats: dict = field(default_factory=dict)
     fine: Level | None = None
 
-    def __init__(self, scene: Scene, points, normals, coarse: Level | None = None,
-                 transport: TransportOperator | None = None,
-                 spectral: SpectralSetup | None = None, point_direct=None,
-                 point_indirect=None, point_xyz=None, solve_method: str = "refined",
-                 solve_tolerance: float | None = None, solve_max_steps: int = 1000,
-                 stats: dict | None = None, fine: Level | None = None, **flat: Any):
-        # ``flat``: the level fields by their flat names of before (``radiosity=``,
-        # ``fine_patches=``); they override ``coarse``/``fine``, so dataclasses.replace with a
-        # flat name changes that level's field
-        unknown = set(flat) - set(_COARSE) - set(_FINE)
-        if unknown:
-            raise TypeError(f"LightingSolution got unexpected keywords {sorted(unknown)}")
-        coarse = _merge(coarse, {_COARSE[k]: v for k, v in flat.items() if k in _COARSE})
-        if coarse is None:
-            raise TypeError("LightingSolution needs the coarse level (coarse= or its fields)")
-        fine = _merge(fine, {_FINE[k]: v for k, v in flat.items() if k in _FINE})
-        if fine is not None and fine.patches is None:
-            fine = None  # fine_patches=None: one level
-        values = dict(scene=scene, points=points, normals=normals, coarse=coarse,
-                      transport=transport, spectral=spectral, point_direct=point_direct,
-                      point_indirect=point_indirect, point_xyz=point_xyz,
-                      solve_method=solve_method, solve_tolerance=solve_tolerance,
-                      solve_max_steps=solve_max_steps, stats={} if stats is None else stats,
-                      fine=fine)
-        for name, value in values.items():
-            object.__setattr__(self, name, value)
-
-    patches = _forward("coarse", "patches")
-    gather = _forward("coarse", "gather")
-    rho = _forward("coarse", "rho")
-    patch_direct = _forward("coarse", "patch_direct")
-    radiosity = _forward("coarse", "radiosity")
-    radiosity_xyz = _forward("coarse", "radiosity_xyz")
-    fine_patches = _forward("fine", "patches")
-    fine_gather = _forward("fine", "gather")
-    fine_rho = _forward("fine", "rho")
-    fine_patch_direct = _forward("fine", "patch_direct")
-    fine_patch_indirect = _forward("fine", "patch_indirect")
-    fine_radiosity = _forward("fine", "radiosity")
-    fine_radiosity_xyz = _forward("fine", "radiosity_xyz")
-
     @property
     def display(self) -> Level:
         """The level to show and write: the fine one of a two-level solve, else the coarse."""
         return self.coarse if self.fine is None else self.fine
-
-    @property
-    def display_patches(self):
-        """The patches to show and write: the fine ones of a two-level solve, else the elements."""
-        return self.display.patches
-
-    @property
-    def display_radiosity(self) -> Float[np.ndarray, "net patches"]:
-        """``(networks, display patches)`` luminous radiosity (lm/m²) at dimmer 1."""
-        return self.display.radiosity
-
-    @property
-    def display_radiosity_xyz(self) -> Float[np.ndarray, "net 3 patches"] | None:
-        """``(networks, 3, display patches)`` CIE XYZ of the radiosity, or None."""
-        return self.display.radiosity_xyz
-
-    @property
-    def display_patch_direct(self) -> Float[np.ndarray, "net patches"]:
-        """``(networks, display patches)`` direct irradiance (lx)."""
-        return self.display.patch_direct
 
     @property
     def display_rho(self) -> Float[np.ndarray, " patches"] | None:
@@ -314,7 +240,7 @@ class LightingSolution:
             if d.patches is not None:
                 coarse.patch_direct[d.network] += d.patches
         if self.coarse.patches is not None:
-            shot = shoot(self, np.stack([d.patches for d in deltas]),
+            shot = shoot(self, np.stack([_needed(d.patches) for d in deltas]),
                          [d.spectrum for d in deltas], np.stack([d.points for d in deltas]))
             for q, d in enumerate(deltas):
                 coarse.radiosity[d.network] += shot.radiosity[q]
@@ -326,7 +252,7 @@ class LightingSolution:
                 from ..radiosity._final_gather import reflect_onto_fine
 
                 rb, rxyz, rind = reflect_onto_fine(
-                    fine.gather, fine.rho, np.stack([d.fine for d in deltas]),
+                    fine.gather, fine.rho, np.stack([_needed(d.fine) for d in deltas]),
                     [self.spectral.weights(d.spectrum) for d in deltas], shot.value)
                 for q, d in enumerate(deltas):
                     fine.patch_direct[d.network] += d.fine
@@ -351,13 +277,10 @@ class _Delta(NamedTuple):
     fine: np.ndarray | None
 
 
-def _merge(level: Level | None, fields: dict) -> Level | None:
-    if not fields:
-        return level
-    if level is None:
-        return Level(**{"patches": None, "gather": None, "rho": None, "patch_direct": None,
-                        "radiosity": None, **fields})
-    return dataclasses.replace(level, **fields)
+def _needed(value: _T | None) -> _T:
+    """``value``, which the caller's level of inter-reflection guarantees is there."""
+    assert value is not None, "a solution with patches has its gather, spectra and light"
+    return value
 
 
 def _copy(level: Level) -> Level:
@@ -390,7 +313,7 @@ class Shot:
     radiosity_xyz: Float[np.ndarray, "src 3 patches"] | None
     point_indirect: Float[np.ndarray, "src points"]
     point_xyz: Float[np.ndarray, "src 3 points"] | None
-    result: object
+    result: RadiositySolution
     timing_s: dict = field(default_factory=dict)
     value: Float[np.ndarray, "patches src w"] | None = None  # the spectral radiosity solved
 
@@ -405,7 +328,7 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
         (group) with spectrum ``spectra[i]`` (None: the default).
     """
     t0 = time.perf_counter()
-    sp = sol.spectral
+    sp, gather = _needed(sol.spectral), _needed(sol.coarse.gather)
     weights = [sp.weights(s) for s in spectra]
     s = np.stack([w[0] for w in weights])  # (src, W)
     h = np.stack([w[1] for w in weights])  # (src, 3, W)
@@ -415,7 +338,7 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
                             max_steps=sol.solve_max_steps)
     t1 = time.perf_counter()
     b_xyz = np.einsum("scw,psw->scp", h, b)  # (src, 3, P)
-    e_ind = np.asarray(sol.gather(jnp.asarray(b, dtype)), np.float64)  # (N, src, W)
+    e_ind = np.asarray(gather(jnp.asarray(b, dtype)), np.float64)  # (N, src, W)
     ind_xyz = np.einsum("scw,nsw->scn", h, e_ind)  # (src, 3, N)
     colour = np.einsum("scw,sw->sc", h, s)  # XYZ of each source's light, Y = 1
     point_xyz = ind_xyz + colour[:, :, None] * np.asarray(point_direct)[:, None, :]

@@ -26,16 +26,16 @@ from functools import cached_property
 import numpy as np
 from jaxtyping import Float
 
+from ..spectral import SpectralSampling, Spectrum
+
 __all__ = ["SpectralSetup", "DEFAULT_EMISSION", "source_spectrum", "solve_spectral"]
 
 DEFAULT_EMISSION = "E"
 """Spectrum of a luminaire that names none: CIE illuminant E (equal energy), a neutral white."""
 
 
-def source_spectrum(spectrum):
+def source_spectrum(spectrum: Spectrum | None) -> Spectrum:
     """A light source's spectrum, or the default one."""
-    from ..spectral import Spectrum
-
     return spectrum if spectrum is not None else Spectrum.from_name(DEFAULT_EMISSION, "emission")
 
 
@@ -51,7 +51,7 @@ class SpectralSetup:
         ``(patches, W)`` reflectance at the sample wavelengths (W = 1 photometric).
     """
 
-    sampling: object | None
+    sampling: SpectralSampling | None
     rho: Float[np.ndarray, "patches w"]
 
     @property

@@ -349,8 +349,8 @@ def report_context(study: Study, results: Results, *, cameras=None, pictures: bo
             "points": sum(len(g.points) for g in results.grids.values()),
             "flux": _fmt(total_flux), "power": _fmt(total_power) if any_power else None,
             "criteria_met": n_met, "criteria": n_crit,
-            "patches": None if results.lighting is None or results.lighting.patches is None
-            else results.lighting.patches.n,
+            "patches": None if results.lighting is None or results.lighting.coarse.patches is None
+            else results.lighting.coarse.patches.n,
             "compute_s": f"{results.timing_s.get('total', 0.0):.1f}",
         },
         "grids": grids, "networks": networks, "any_power": any_power,

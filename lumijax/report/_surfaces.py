@@ -117,10 +117,10 @@ def surface_light(results, *, illuminance: bool = False, target_patches: int = 3
     lighting = results.lighting
     scene = lighting.scene
     # a two-level solve draws its fine patches (the display level); otherwise the patches
-    p = lighting.display_patches
+    p = lighting.display.patches
     if p is not None and p.n:
-        b = np.asarray(lighting.display_radiosity, np.float64)
-        b_xyz = lighting.display_radiosity_xyz
+        b = np.asarray(lighting.display.radiosity, np.float64)
+        b_xyz = lighting.display.radiosity_xyz
         if b_xyz is not None:
             bxyz = np.moveaxis(np.asarray(b_xyz, np.float64), 1, 2)  # (K, P, 3)
         else:

@@ -23,7 +23,7 @@ def write_patches_vtp(lighting, dimmers, path: str | Path) -> Path:
     """
     import pyvista as pv
 
-    p = lighting.display_patches  # the fine patches of a two-level solve
+    p = lighting.display.patches  # the fine patches of a two-level solve
     verts = p.vertices.reshape(-1, 3)
     faces = np.hstack([np.full((p.n, 1), 3), np.arange(3 * p.n).reshape(-1, 3)]).ravel()
     mesh = pv.PolyData(verts, faces)
@@ -32,15 +32,15 @@ def write_patches_vtp(lighting, dimmers, path: str | Path) -> Path:
     mesh.cell_data["radiosity_lm_m2"] = b
     mesh.cell_data["luminance_cd_m2"] = b / np.pi
     mesh.cell_data["illuminance_lux"] = d @ lighting.display_patch_illuminance()
-    mesh.cell_data["direct_lux"] = d @ lighting.display_patch_direct
+    mesh.cell_data["direct_lux"] = d @ lighting.display.patch_direct
     mesh.cell_data["reflectance"] = lighting.display_rho
     mesh.cell_data["material"] = np.asarray(p.material, np.int32)
-    for name, row in zip(lighting.scene.network_names, lighting.display_radiosity, strict=True):
+    for name, row in zip(lighting.scene.network_names, lighting.display.radiosity, strict=True):
         mesh.cell_data[f"radiosity_lm_m2:{name}"] = row
-    if lighting.display_radiosity_xyz is not None:
+    if lighting.display.radiosity_xyz is not None:
         from ..spectral import xyz_to_chromaticity, xyz_to_srgb
 
-        xyz = np.einsum("k,kcp->pc", d, lighting.display_radiosity_xyz)
+        xyz = np.einsum("k,kcp->pc", d, lighting.display.radiosity_xyz)
         mesh.cell_data["xyz"] = xyz
         mesh.cell_data["chromaticity_xy"] = xyz_to_chromaticity(xyz)
         # display colour of the surfaces' own colour: luminance-normalised, so that an image

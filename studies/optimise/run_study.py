@@ -77,7 +77,8 @@ def _exact_objective(study, opt) -> float:
     alpha = np.array([opt.dimmers[n] for n in sc.network_names])
     e = np.concatenate([res.grids[g.name].illuminance_lux for g in sc.grids])
     lighting = res.lighting
-    b = alpha @ lighting.radiosity if lighting is not None and lighting.radiosity.size else None
+    lit = lighting is not None and lighting.coarse.radiosity.size
+    b = alpha @ lighting.coarse.radiosity if lit else None
     return float(obj.value(e, b, alpha))
 
 

@@ -135,15 +135,15 @@ def test_a_large_grid_reports_direct_light_in_chunks(write_study):
 
 
 def test_the_gather_of_a_large_grid_reports_chunks_and_sees_the_whole_room(monkeypatch):
-    from lumijax.lighting import _pipeline
+    from lumijax.lighting import _stages
 
-    monkeypatch.setattr(_pipeline, "POINT_CHUNK", 4096)
+    monkeypatch.setattr(_stages, "POINT_CHUNK", 4096)
     p, tri = _scene([((0, 0, 0), (4, 3, 3))], 0.5)
     xy = np.stack(np.meshgrid(np.linspace(0.1, 3.9, 120), np.linspace(0.1, 2.9, 100)), -1)
     pts = np.column_stack([xy.reshape(-1, 2), np.full(12_000, 1.0)])
     nrm = np.tile([0.0, 0.0, 1.0], (12_000, 1))
     calls = []
-    g = _pipeline._gather_in_chunks(pts, nrm, p, RayCaster(tri), 16, lambda *a: calls.append(a))
+    g = _stages._gather_in_chunks(pts, nrm, p, RayCaster(tri), 16, lambda *a: calls.append(a))
     assert [c[0] for c in calls] == [0, 4096, 8192, 12_000]
     assert g.n_points == 12_000 and g.point.max() == 11_999
     # inside a closed box every ray meets a front face: each point's weights sum to 1

@@ -51,16 +51,17 @@ def room(tmp_path_factory):
 
 def test_elements_are_coarser_and_fine_patches_are_the_one_level_patches(room):
     _, _, _, one, two = room
-    assert two.fine_patches is not None and two.display_patches is two.fine_patches
-    assert two.patches.n < two.fine_patches.n / 3
-    np.testing.assert_array_equal(two.fine_patches.vertices, one.patches.vertices)
-    assert one.fine_patches is None and one.display_patches is one.patches
-    assert two.stats["fine_patches"] == one.patches.n
+    assert two.fine is not None and two.display.patches is two.fine.patches
+    assert two.coarse.patches.n < two.fine.patches.n / 3
+    np.testing.assert_array_equal(two.fine.patches.vertices, one.coarse.patches.vertices)
+    assert one.fine is None and one.display.patches is one.coarse.patches
+    assert two.stats["fine_patches"] == one.coarse.patches.n
 
 
 def test_direct_light_on_fine_patches_is_the_one_level_direct(room):
     _, _, _, one, two = room
-    np.testing.assert_allclose(two.fine_patch_direct, one.patch_direct, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(two.fine.patch_direct, one.coarse.patch_direct, rtol=1e-12,
+                               atol=1e-9)
     np.testing.assert_allclose(two.point_direct, one.point_direct, rtol=1e-12)
 
 
@@ -72,9 +73,9 @@ def test_indirect_on_fine_patches_and_points_matches_the_fine_one_level_solve(ro
     coarse operator's (the gather itself carries the elements' irradiance flux within 0.5 %);
     at 3× coarser it is −0.4 / −1.1 % (docs/radiosity.md)."""
     _, _, _, one, two = room
-    a = one.patches.area
-    ind_one = one.patch_illuminance() - one.patch_direct
-    ind_two = two.fine_patch_indirect
+    a = one.coarse.patches.area
+    ind_one = one.patch_illuminance() - one.coarse.patch_direct
+    ind_two = two.fine.patch_indirect
     for k in range(2):
         assert _area_mean(ind_two[k], a) == pytest.approx(_area_mean(ind_one[k], a), rel=0.04)
         rms = np.sqrt(np.sum(a * (ind_two[k] - ind_one[k]) ** 2) / np.sum(a * ind_one[k] ** 2))
@@ -83,7 +84,7 @@ def test_indirect_on_fine_patches_and_points_matches_the_fine_one_level_solve(ro
     # radiosity = ρ (direct + indirect) on the fine patches, luminous
     rho = two.display_rho
     np.testing.assert_allclose(
-        two.fine_radiosity, rho * (two.fine_patch_direct + two.fine_patch_indirect), rtol=0.02)
+        two.fine.radiosity, rho * (two.fine.patch_direct + two.fine.patch_indirect), rtol=0.02)
 
 
 def test_superposition_per_network_is_exact_on_fine_patches(room):
@@ -93,12 +94,12 @@ def test_superposition_per_network_is_exact_on_fine_patches(room):
     only_a = dataclasses.replace(
         sc, luminaires=tuple(lum for lum in sc.luminaires if lum.network == "a"))
     sol = solve_lighting(only_a, pts, nrm, solver_settings(study, operator_patches=ELEMENTS))
-    np.testing.assert_allclose(sol.fine_radiosity[0], two.fine_radiosity[0], rtol=2e-4,
-                               atol=1e-6 * two.fine_radiosity[0].max())
-    np.testing.assert_allclose(sol.fine_radiosity[1], 0.0, atol=0.0)
+    np.testing.assert_allclose(sol.fine.radiosity[0], two.fine.radiosity[0], rtol=2e-4,
+                               atol=1e-6 * two.fine.radiosity[0].max())
+    np.testing.assert_allclose(sol.fine.radiosity[1], 0.0, atol=0.0)
     d = np.array([0.3, 0.9])
     np.testing.assert_allclose(two.display_radiosity_at(d),
-                               0.3 * two.fine_radiosity[0] + 0.9 * two.fine_radiosity[1])
+                               0.3 * two.fine.radiosity[0] + 0.9 * two.fine.radiosity[1])
 
 
 def test_replacing_a_luminaire_updates_the_fine_level_like_a_full_resolve(room):
@@ -110,9 +111,10 @@ def test_replacing_a_luminaire_updates_the_fine_level_like_a_full_resolve(room):
     lums[1] = moved
     full = solve_lighting(dataclasses.replace(sc, luminaires=tuple(lums)), pts, nrm,
                           solver_settings(study, operator_patches=ELEMENTS))
-    for name in ("fine_patch_direct", "fine_patch_indirect", "fine_radiosity"):
-        ref = getattr(full, name)
-        np.testing.assert_allclose(getattr(inc, name), ref, rtol=1e-3, atol=1e-4 * ref.max())
+    for got, ref in ((inc.fine.patch_direct, full.fine.patch_direct),
+                     (inc.fine.patch_indirect, full.fine.patch_indirect),
+                     (inc.fine.radiosity, full.fine.radiosity)):
+        np.testing.assert_allclose(got, ref, rtol=1e-3, atol=1e-4 * ref.max())
 
 
 def _validation_script():
@@ -136,12 +138,12 @@ def test_integrating_sphere_two_levels(tmp_path, rho):
         tmp_path, rho, subdivisions=3, patch_size=0.2, gather_rays=256, points=8, flux=FLUX)
     path.write_text(path.read_text() + "operator_patches = 100\n", encoding="utf-8")
     sol = lumijax.compute(load_study(path)).lighting
-    assert sol.patches.n == 1280 and sol.fine_patches.n == 4 * 1280
+    assert sol.coarse.patches.n == 1280 and sol.fine.patches.n == 4 * 1280
     ref = FLUX / (area * (1 - rho))
     e = sol.display_patch_illuminance()[0]
-    assert _area_mean(e, sol.fine_patches.area) == pytest.approx(ref, rel=0.01)
+    assert _area_mean(e, sol.fine.patches.area) == pytest.approx(ref, rel=0.01)
     np.testing.assert_allclose(e, ref, rtol=0.03)
-    np.testing.assert_allclose(sol.display_radiosity[0], rho * e, rtol=1e-9)
+    np.testing.assert_allclose(sol.display.radiosity[0], rho * e, rtol=1e-9)
 
 
 def test_patches_file_holds_the_fine_patches(room, tmp_path):
@@ -151,6 +153,6 @@ def test_patches_file_holds_the_fine_patches(room, tmp_path):
 
     _, _, _, _, two = room
     mesh = pv.read(write_patches_vtp(two, [1.0, 0.5], tmp_path / "p.vtp"))
-    assert mesh.n_cells == two.fine_patches.n
+    assert mesh.n_cells == two.fine.patches.n
     np.testing.assert_allclose(mesh.cell_data["radiosity_lm_m2"],
-                               two.fine_radiosity[0] + 0.5 * two.fine_radiosity[1], rtol=1e-6)
+                               two.fine.radiosity[0] + 0.5 * two.fine.radiosity[1], rtol=1e-6)

@@ -40,7 +40,7 @@ def test_any_dimmer_vector_equals_a_full_resolve(write_study):
         for lum in sc.luminaires))
     settings = lumijax._study.solver_settings(study)
     one = solve_lighting(scaled, sol.points, sol.normals, settings)
-    np.testing.assert_allclose(sol.radiosity_at(alpha), one.radiosity[0], rtol=1e-6)
+    np.testing.assert_allclose(sol.radiosity_at(alpha), one.coarse.radiosity[0], rtol=1e-6)
     np.testing.assert_allclose(alpha @ sol.point_total, one.point_total[0], rtol=1e-6)
 
 
@@ -53,7 +53,7 @@ def test_replacing_one_luminaire_equals_a_full_resolve(write_study):
     fast = sol.replace_luminaire(2, moved)
     full = solve_lighting(fast.scene, sol.points, sol.normals,
                           lumijax._study.solver_settings(study))
-    np.testing.assert_allclose(fast.radiosity, full.radiosity, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(fast.coarse.radiosity, full.coarse.radiosity, rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(fast.point_total, full.point_total, rtol=1e-6, atol=1e-9)
     assert not np.allclose(fast.point_total, sol.point_total)  # it did change something
 
@@ -84,9 +84,9 @@ def test_patches_file_opens_in_pyvista_with_consistent_light(write_study, tmp_pa
     paths = lumijax.write_results(res, tmp_path / "out", images=False)
     mesh = pv.read(paths["patches.vtp"])
     sol = res.lighting
-    assert mesh.n_cells == sol.patches.n
+    assert mesh.n_cells == sol.coarse.patches.n
     b = mesh.cell_data["radiosity_lm_m2"]
-    np.testing.assert_allclose(b, study.scene.dimmers @ sol.radiosity, rtol=1e-6)
+    np.testing.assert_allclose(b, study.scene.dimmers @ sol.coarse.radiosity, rtol=1e-6)
     np.testing.assert_allclose(mesh.cell_data["luminance_cd_m2"], b / np.pi, rtol=1e-6)
     # a diffuse patch reflects ρ of what it receives: B = ρ E (the solve's own equation)
     e = mesh.cell_data["illuminance_lux"]

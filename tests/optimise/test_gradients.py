@@ -99,7 +99,8 @@ def test_aim_model_reproduces_the_study_at_the_start(facade_results, aim_model):
     e, b, _ = model(jnp.asarray(x))
     np.testing.assert_allclose(np.asarray(e), results["wall"].illuminance_lux, rtol=1e-9,
                                atol=1e-9)
-    np.testing.assert_allclose(np.asarray(b), alpha @ lighting.radiosity, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(b), alpha @ lighting.coarse.radiosity, rtol=1e-9,
+                               atol=1e-9)
 
 
 def test_float32_pairs_agree_with_float64(facade_results, aim_model):

@@ -196,12 +196,12 @@ def test_refine_setting_reaches_the_solve(write_study):
     tri = study.scene.triangles
     p0 = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=BASE)
     res = lumijax.compute(study)
-    p = res.lighting.patches
+    p = res.lighting.coarse.patches
     assert p.n > p0.n
     assert p.area.sum() == pytest.approx(p0.area.sum())
     floor = (p.normal[:, 2] > 0.99) & (p.centroid[:, 2] < 1e-9)
     assert p.area[floor].min() == pytest.approx(p0.area[0] / 16)
-    assert np.allclose(res.lighting.patch_direct[0][floor], exact(p.centroid[floor]),
+    assert np.allclose(res.lighting.coarse.patch_direct[0][floor], exact(p.centroid[floor]),
                        rtol=1e-4, atol=1e-6 * PHI)
 
 

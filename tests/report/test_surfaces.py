@@ -28,9 +28,9 @@ def _study(write_study, tmp_path, indirect):
 def test_drawn_patches_are_the_solutions(write_study, tmp_path):
     res = lumijax.compute(_study(write_study, tmp_path, True))
     s = surface_light(res)
-    p = res.lighting.display_patches
+    p = res.lighting.display.patches
     assert len(s.faces) == p.n
-    np.testing.assert_allclose(s.patch_luminance, res.lighting.display_radiosity / np.pi)
+    np.testing.assert_allclose(s.patch_luminance, res.lighting.display.radiosity / np.pi)
     np.testing.assert_allclose(s.area, p.area)
 
 
@@ -38,7 +38,7 @@ def test_drawn_patches_are_the_solutions(write_study, tmp_path):
 def test_without_patches_the_direct_light_is_drawn_with_the_solutions_shadows(
         write_study, tmp_path, shadows):
     res = lumijax.compute(_study(write_study, tmp_path, False), shadows=shadows)
-    assert res.lighting.patches is None
+    assert res.lighting.coarse.patches is None
     s = surface_light(res)
     centre = s.points[s.faces].mean(axis=1)
     floor = np.abs(centre[:, 2]) < 1e-9

@@ -81,7 +81,7 @@ def test_integrating_sphere(shared_dir, rho):
     sol = res.lighting
     ref = FLUX / (area * (1 - rho))
     e = sol.patch_illuminance()[0]
-    assert _area_mean(e, sol.patches.area) == pytest.approx(ref, rel=0.01)
+    assert _area_mean(e, sol.coarse.patches.area) == pytest.approx(ref, rel=0.01)
     np.testing.assert_allclose(e, ref, rtol=0.03)
     g = res.grids["inside"]
     direct = g.at_dimmers_direct(g.dimmers)
@@ -115,7 +115,7 @@ def test_cube_flux_balance(shared_dir, rho):
     e = sol.patch_illuminance()
     ref = FLUX / (96.0 * (1 - rho))
     for k in range(2):
-        assert _area_mean(e[k], sol.patches.area) == pytest.approx(ref, rel=0.01)
+        assert _area_mean(e[k], sol.coarse.patches.area) == pytest.approx(ref, rel=0.01)
 
 
 @pytest.mark.parametrize("rho", [0.8])
@@ -139,7 +139,7 @@ def test_cube_furnace(shared_dir, rho):
     sol = res.lighting
     ref = m / (1 - rho)
     e = sol.patch_illuminance()[0]
-    assert _area_mean(e, sol.patches.area) == pytest.approx(ref, rel=0.01)
+    assert _area_mean(e, sol.coarse.patches.area) == pytest.approx(ref, rel=0.01)
     np.testing.assert_allclose(e, ref, rtol=0.03)
     np.testing.assert_allclose(res.grids["inside"].illuminance_lux, ref, rtol=0.03)
 

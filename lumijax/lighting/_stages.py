@@ -1,0 +1,558 @@
+"""The stages of a study's lighting: each a function of the records before it that returns its
+own typed record, with the wall time (s) the stage took.
+
+    Emission ─▶ DirectLight (points) ─▶ Meshed ─▶ Transport ─▶ DirectLight (+ patches)
+        ─▶ Sampling ─▶ GatherRays ─▶ Radiosity ─▶ Gathered  ─▶  LightingSolution (assemble)
+
+Light in the records is per emission group (a network and a spectrum: one column of the solve
+per sample wavelength); :meth:`Emission.per_network` sums the groups of a network at the end.
+``solve_lighting`` (``_pipeline.py``) runs them in this order; a benchmark may run them one by
+one to measure each (``benchmarks/courtyard.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import overload
+
+import numpy as np
+from jaxtyping import Float
+
+from ..direct import DirectLighting, direct_illuminance
+from ..errors import LumijaxWarning
+from ..radiosity import (
+    GatherOperator,
+    PartitionSettings,
+    Patches,
+    TransportOperator,
+    build_gather,
+    build_operator,
+    cached_operator,
+    mesh_patches,
+    partition,
+    refine_patches,
+)
+from ..radiosity._estimate import bound_operator_memory, check_before_meshing
+from ..radiosity._final_gather import FineLevel, element_direct, final_gather
+from ..scene import AreaSource, Luminaire, Network, Scene
+from ..spectral import Spectrum
+from ._settings import SolverSettings, auto_patch_size
+from ._solution import Level, LightingSolution, Shot, _needed, shoot
+from ._spectral import SpectralSetup, source_spectrum
+
+__all__ = [
+    "Emission", "DirectLight", "Meshed", "Transport", "Sampling", "GatherRays", "Radiosity",
+    "Gathered", "group_emission", "light_points", "mesh", "build_transport", "light_patches",
+    "sample_spectra", "cast_gather_rays", "solve", "gather_fine", "assemble", "direct_only",
+    "CREATED_WARN", "POINT_CHUNK",
+]
+
+Report = Callable[[int, int], None]
+
+CREATED_WARN = 0.01
+"""Fraction of the reflected flux that rows summing above 1 would create, beyond which a
+study is warned (the solve corrects it either way)."""
+
+#: Grid points per chunk of direct light and gathering on a large grid: each chunk reports
+#: progress (a 10⁷-point grid in ~80 steps), and one chunk's rays and pairs stay in memory.
+POINT_CHUNK = 1 << 17
+
+
+# --- records ----------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Emission:
+    """The scene's sources grouped by (network, spectrum).
+
+    Attributes
+    ----------
+    scene
+        The scene with each source's network replaced by its group (``group0``, ``group1``…):
+        direct light of this scene comes out per group.
+    network, spectra
+        Each group's network index (``scene.networks`` order of the study's scene) and spectrum.
+    to_network
+        ``(networks, groups)`` 0/1 matrix summing groups into networks.
+    seconds
+        Wall time of the grouping (s).
+    """
+
+    scene: Scene
+    network: tuple[int, ...]
+    spectra: tuple[Spectrum, ...]
+    to_network: Float[np.ndarray, "net group"]
+    seconds: float = 0.0
+
+    @overload
+    def per_network(self, a: np.ndarray) -> np.ndarray: ...
+
+    @overload
+    def per_network(self, a: None) -> None: ...
+
+    def per_network(self, a: np.ndarray | None) -> np.ndarray | None:
+        """Per-group values (groups on the first axis) summed into networks."""
+        return None if a is None else np.tensordot(self.to_network, a, axes=(1, 0))
+
+
+@dataclass(frozen=True, eq=False)
+class DirectLight:
+    """Direct illuminance (lx) per emission group at dimmer 1, shadows included.
+
+    Attributes
+    ----------
+    points
+        ``(groups, points)`` on the calculation points.
+    patches
+        ``(groups, patches)`` on the operator's patches (two levels: the fine patches' flux
+        over each element's area); None before :func:`light_patches`.
+    fine
+        ``(groups, fine)`` on the fine patches of a two-level solve, else None.
+    shadow_rays
+        Shadow rays cast so far.
+    points_s, patches_s
+        Wall time (s) of the light on the points and on the patches.
+    """
+
+    points: Float[np.ndarray, "group points"]
+    patches: Float[np.ndarray, "group patches"] | None = None
+    fine: Float[np.ndarray, "group fine"] | None = None
+    shadow_rays: int = 0
+    points_s: float = 0.0
+    patches_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Meshed:
+    """The scene's surfaces cut into patches.
+
+    Attributes
+    ----------
+    patches
+        The operator's patches (the elements of a two-level solve).
+    fine
+        The fine patches that gather from the elements (two levels), else None.
+    patch_size_m, element_size_m
+        Patch edge (m) of ``fine`` (two levels) or ``patches``, and of the elements (None:
+        one level).
+    seconds
+        Wall time (s): checks, meshing, adaptive refinement and the second level.
+    """
+
+    patches: Patches
+    fine: Patches | None
+    patch_size_m: float
+    element_size_m: float | None
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class Transport:
+    """The transport operator F of the operator's patches and where it came from.
+
+    Attributes
+    ----------
+    operator
+        The block-sparse :class:`~lumijax.radiosity.TransportOperator`.
+    cache_hit
+        Whether it was read from the operator cache; None when no cache was asked for.
+    bytes_bound
+        The up-front bound on its memory (bytes) checked before building.
+    bound_s, partition_s, seconds
+        Wall time (s) of the memory bound, of the partition (built without a cache; None
+        otherwise: the cache partitions on a miss) and of building or loading the operator.
+    """
+
+    operator: TransportOperator
+    cache_hit: bool | None
+    bytes_bound: int
+    bound_s: float
+    partition_s: float | None
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class Sampling:
+    """The spectral set-up of the solve and the patches' luminous reflectance.
+
+    ``seconds``: wall time (s) of segmenting the study's spectra into sample wavelengths.
+    """
+
+    spectral: SpectralSetup
+    rho: Float[np.ndarray, " patches"]
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class GatherRays:
+    """The rays cast from the calculation points: the patches → points gather operator.
+
+    ``seconds``: wall time (s) of casting them.
+    """
+
+    gather: GatherOperator
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class Radiosity:
+    """The batched radiosity solve of every emission group, and its gather onto the points.
+
+    ``shot`` holds the per-group radiosity and the inter-reflected light on the points;
+    ``seconds`` the wall time (s) of solve and gather together (``shot.timing_s`` splits it).
+    """
+
+    shot: Shot
+    seconds: float
+
+    def stats(self) -> dict:
+        """The solve's figures as the solution's stats carry them."""
+        res = self.shot.result
+        escaped = np.asarray(res.escaped).ravel()
+        created = np.asarray(res.stats["created"]).ravel()
+        return dict(iterations=int(res.iterations), residual=float(res.residual),
+                    escaped_fraction=float(np.max(escaped)) if escaped.size else 0.0,
+                    columns_solved=int(res.stats["columns_solved"]),
+                    created_fraction=float(np.max(created)) if created.size else 0.0)
+
+
+@dataclass(frozen=True, eq=False)
+class Gathered:
+    """The fine level of a two-level solve, per emission group (None with one level).
+
+    ``seconds``: wall time (s) of the final gather (``fine.timing_s`` splits it).
+    """
+
+    fine: FineLevel | None
+    seconds: float = 0.0
+
+
+# --- stages -----------------------------------------------------------------------------------
+
+def group_emission(scene: Scene) -> Emission:
+    """Group the sources by (network, spectrum): a group is one column of the solve per sample
+    wavelength, and networks sum their groups."""
+    t = time.perf_counter()
+    net = {n.name: i for i, n in enumerate(scene.networks)}
+    index: dict[tuple[int, Spectrum], int] = {}
+    group_of = []
+    sources: list[Luminaire | AreaSource] = [*scene.luminaires, *scene.area_sources]
+    for src in sources:
+        key = (net[src.network], source_spectrum(src.spectrum))
+        group_of.append(index.setdefault(key, len(index)))
+    groups = list(index)
+    names = [f"group{i}" for i in range(len(groups))]
+    n_lum = len(scene.luminaires)
+    grouped = dataclasses.replace(
+        scene,
+        networks=tuple(Network(n) for n in names),
+        luminaires=tuple(dataclasses.replace(lum, network=names[group_of[i]])
+                         for i, lum in enumerate(scene.luminaires)),
+        area_sources=tuple(dataclasses.replace(a, network=names[group_of[n_lum + i]])
+                           for i, a in enumerate(scene.area_sources)),
+    )
+    to_network = np.zeros((len(scene.networks), len(groups)))
+    for gi, (k, _) in enumerate(groups):
+        to_network[k, gi] = 1.0
+    return Emission(grouped, tuple(k for k, _ in groups), tuple(s for _, s in groups),
+                    to_network, seconds=time.perf_counter() - t)
+
+
+def light_points(emission: Emission, points: np.ndarray, normals: np.ndarray,
+                 report: Report) -> DirectLight:
+    """Direct light on the calculation points (m; unit normals); above :data:`POINT_CHUNK`
+    points in chunks that report ``(points done, points)``, below it as one call reporting
+    sources (unchanged results)."""
+    t = time.perf_counter()
+    d = _direct_in_chunks(emission.scene, points, normals, report)
+    return DirectLight(points=d.by_network, shadow_rays=d.shadow_rays,
+                       points_s=time.perf_counter() - t)
+
+
+def mesh(scene: Scene, emission: Emission, settings: SolverSettings) -> Meshed:
+    """Cut the scene's triangles into patches: refused first if the mesh or its operator could
+    not fit (``radiosity._estimate``), refined where the direct light varies (``refine``), and
+    split into elements and fine patches when ``operator_patches`` asks for two levels."""
+    t = time.perf_counter()
+    tri = scene.triangles
+    size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
+    _check_before_meshing(scene, tri, size, settings)
+    patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
+    if settings.refine:
+        patches = refine_patches(
+            patches,
+            lambda p: direct_illuminance(emission.scene, p.centroid, p.normal).by_network,
+            settings.refine, settings.refine_threshold).patches
+    patches, fine = _two_levels(patches, tri, size, settings.operator_patches)
+    esize = None
+    if fine is not None and settings.operator_patches is not None:
+        esize = auto_patch_size(float(tri.areas.sum()), settings.operator_patches)
+    return Meshed(patches, fine, size, esize, time.perf_counter() - t)
+
+
+def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
+                    cache_dir=None) -> Transport:
+    """The operator of ``meshed.patches``: its memory bounded before any form factor (an
+    operator that cannot fit is refused now, naming the settings that would fit, not after
+    minutes of building: docs/radiosity.md, "Memory estimate"), then read from ``cache_dir``
+    or built (None: built every time)."""
+    t = time.perf_counter()
+    tri, caster, patches, fine = scene.triangles, scene.raycaster, meshed.patches, meshed.fine
+    dtype = np.float64 if settings.precision == "float64" else np.float32
+    estimate, part = bound_operator_memory(
+        patches, max_block=settings.max_block, itemsize=np.dtype(dtype).itemsize,
+        caster=caster, triangles=len(tri), two_levels=fine is not None,
+        file=scene.source, patch_size=None if fine is not None else meshed.patch_size_m,
+        requested=settings.operator_patches if fine is not None else (
+            None if settings.patch_size else settings.target_patches),
+        remesh=lambda n: _group_counts(tri, n))
+    bound_s = time.perf_counter() - t
+    partition_s = None
+    hit: bool | None = None
+    if cache_dir is not None:
+        t = time.perf_counter()
+        operator, hit = cached_operator(
+            patches, tri.vertices, cache_dir=cache_dir, dtype=dtype, caster=caster,
+            partition_settings=PartitionSettings(max_block=settings.max_block),
+        )
+        hit = bool(hit)
+    else:
+        t = time.perf_counter()
+        if part is None:
+            part = partition(patches, max_block=settings.max_block, occluders=caster)
+        partition_s = time.perf_counter() - t
+        t = time.perf_counter()
+        operator = build_operator(patches, part, caster, dtype=dtype,
+                                  occluder_triangles=tri.vertices)
+    return Transport(operator, hit, int(estimate.stored_bytes), bound_s, partition_s,
+                     time.perf_counter() - t)
+
+
+def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
+                  report: Report) -> DirectLight:
+    """``direct`` with the direct light on the patches: on the operator's patches (one level),
+    or exact on the fine patches with the elements getting their area means (two levels: the
+    flux the solve reflects is the fine one)."""
+    t = time.perf_counter()
+    fine = None
+    if meshed.fine is None:
+        patch = direct_illuminance(emission.scene, meshed.patches.centroid,
+                                   meshed.patches.normal, progress=report)
+    else:
+        d_fine, patch = element_direct(emission.scene, meshed.fine, meshed.patches,
+                                       progress=report)
+        fine = d_fine.by_network
+    return dataclasses.replace(direct, patches=patch.by_network, fine=fine,
+                               shadow_rays=direct.shadow_rays + patch.shadow_rays,
+                               patches_s=time.perf_counter() - t)
+
+
+def sample_spectra(scene: Scene, meshed: Meshed, settings: SolverSettings) -> Sampling:
+    """The sample wavelengths of the solve (``spectral_samples``; 0 photometric) and the
+    reflectances of the operator's patches."""
+    rho = np.array([m.luminous_reflectance for m in scene.materials])[meshed.patches.material]
+    t = time.perf_counter()
+    spectral = SpectralSetup.build(scene, meshed.patches.material, settings.spectral_samples)
+    return Sampling(spectral, rho, time.perf_counter() - t)
+
+
+def cast_gather_rays(points: np.ndarray, normals: np.ndarray, meshed: Meshed, scene: Scene,
+                     settings: SolverSettings, report: Report) -> GatherRays:
+    """The gather of inter-reflected light onto the calculation points (``gather_rays`` rays
+    each); above :data:`POINT_CHUNK` points in chunks (a seed per chunk: the same statistics,
+    not the same rays) that report ``(points done, points)``."""
+    t = time.perf_counter()
+    gather = _gather_in_chunks(points, normals, meshed.patches, scene.raycaster,
+                               settings.gather_rays, report)
+    return GatherRays(gather, time.perf_counter() - t)
+
+
+def solve(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emission,
+          direct: DirectLight, meshed: Meshed, transport: Transport, sampling: Sampling,
+          rays: GatherRays, settings: SolverSettings) -> Radiosity:
+    """One batched solve ``(I − ρ(λ)F) B = ρ(λ) E s(λ)`` of every group and sample wavelength,
+    gathered onto the points (:func:`~lumijax.lighting._solution.shoot`)."""
+    k, n = len(scene.networks), meshed.patches.n
+    point_direct = emission.per_network(direct.points)
+    unlit = LightingSolution(
+        scene=scene, points=points, normals=normals,
+        coarse=Level(patches=meshed.patches, gather=rays.gather, rho=sampling.rho,
+                     patch_direct=np.zeros((k, n)), radiosity=np.zeros((k, n))),
+        transport=transport.operator, spectral=sampling.spectral, point_direct=point_direct,
+        point_indirect=np.zeros_like(point_direct), point_xyz=None,
+        solve_method=settings.method, solve_tolerance=settings.tolerance,
+        solve_max_steps=settings.max_iterations,
+    )
+    t = time.perf_counter()
+    shot = shoot(unlit, direct.patches, list(emission.spectra), direct.points)
+    return Radiosity(shot, time.perf_counter() - t)
+
+
+def gather_fine(scene: Scene, emission: Emission, direct: DirectLight, meshed: Meshed,
+                sampling: Sampling, radiosity: Radiosity, settings: SolverSettings) -> Gathered:
+    """Two levels: the elements' radiosity gathered onto the fine patches and reflected there
+    (``radiosity._final_gather``); one level: nothing to do."""
+    if meshed.fine is None:
+        return Gathered(None)
+    t = time.perf_counter()
+    fine = final_gather(meshed.fine, meshed.patches, scene.raycaster, sampling.spectral,
+                        list(emission.spectra), _needed(radiosity.shot.value),
+                        _needed(direct.fine), rays=settings.gather_rays)
+    return Gathered(fine, time.perf_counter() - t)
+
+
+def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emission,
+             direct: DirectLight, meshed: Meshed, transport: Transport, sampling: Sampling,
+             rays: GatherRays, radiosity: Radiosity, gathered: Gathered,
+             settings: SolverSettings) -> LightingSolution:
+    """The :class:`LightingSolution` of the records: groups summed into networks, the stats
+    and the stages' times (``stats["timing_s"]``, docs/results.md), and the warnings a
+    solve can give (rows creating light, an open scene)."""
+    per = emission.per_network
+    shot, fine = radiosity.shot, gathered.fine
+    solve_stats = radiosity.stats()
+    _warn(shot, solve_stats, rays.gather, len(points))
+    stats: dict = {"shadow_rays": direct.shadow_rays, "patches": meshed.patches.n,
+                   "patch_size_m": meshed.patch_size_m}
+    if meshed.fine is not None:
+        stats.update(fine_patches=meshed.fine.n, element_size_m=meshed.element_size_m)
+    stats["operator_bytes_bound"] = transport.bytes_bound
+    if transport.cache_hit is not None:
+        stats["operator_cache_hit"] = transport.cache_hit
+    stats.update(operator_bytes=int(transport.operator.nbytes),
+                 spectral_samples=sampling.spectral.n, **solve_stats)
+    timing = {"emission": emission.seconds, "direct_points": direct.points_s,
+              "mesh": meshed.seconds, "memory_bound": transport.bound_s}
+    if transport.partition_s is not None:
+        timing["partition"] = transport.partition_s
+    timing.update(operator=transport.seconds, direct_patches=direct.patches_s,
+                  spectral_sampling=sampling.seconds, gather_rays=rays.seconds,
+                  solve_and_gather=radiosity.seconds, **shot.timing_s)
+    fine_level = None
+    if fine is not None:
+        timing["final_gather"] = gathered.seconds
+        timing.update(fine.timing_s)
+        fine_level = Level(patches=meshed.fine, gather=fine.gather, rho=fine.rho,
+                           patch_direct=per(fine.direct), patch_indirect=per(fine.indirect),
+                           radiosity=per(fine.radiosity), radiosity_xyz=per(fine.radiosity_xyz))
+    coarse = Level(patches=meshed.patches, gather=rays.gather, rho=sampling.rho,
+                   patch_direct=per(_needed(direct.patches)), radiosity=per(shot.radiosity),
+                   radiosity_xyz=per(shot.radiosity_xyz))
+    point_direct = per(direct.points)
+    return LightingSolution(
+        scene=scene, points=points, normals=normals, coarse=coarse, fine=fine_level,
+        transport=transport.operator, spectral=sampling.spectral, point_direct=point_direct,
+        point_indirect=per(shot.point_indirect), point_xyz=per(shot.point_xyz),
+        solve_method=settings.method, solve_tolerance=settings.tolerance,
+        solve_max_steps=settings.max_iterations, stats={**stats, "timing_s": timing},
+    )
+
+
+def direct_only(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emission,
+                direct: DirectLight) -> LightingSolution:
+    """The solution without inter-reflection (off, or no surfaces, or no networks)."""
+    point_direct = emission.per_network(direct.points)
+    return LightingSolution(
+        scene=scene, points=points, normals=normals, coarse=Level.unlit(len(scene.networks)),
+        transport=None, spectral=None, point_direct=point_direct,
+        point_indirect=np.zeros_like(point_direct), point_xyz=None,
+        stats={"shadow_rays": direct.shadow_rays,
+               "timing_s": {"emission": emission.seconds, "direct_points": direct.points_s}},
+    )
+
+
+# --- helpers ----------------------------------------------------------------------------------
+
+def _warn(shot: Shot, stats: dict, gather: GatherOperator, n_points: int) -> None:
+    # stacklevel 4: the warning points at the caller of solve_lighting
+    if stats["created_fraction"] > CREATED_WARN:
+        warnings.warn(
+            f"form-factor rows sum to up to {float(shot.result.stats['row_max']):.3f} (above 1: "
+            f"{100 * stats['created_fraction']:.1f} % of the reflected flux would be created, "
+            "not reflected); corrected by rescaling those patches' outgoing light "
+            "(docs/radiosity.md, \"Row sums\"). Usually coincident surfaces (see any warning "
+            "naming them) or patches too coarse where surfaces meet: lower [solver] "
+            "patch_size or raise [solver] target_patches",
+            LumijaxWarning, stacklevel=4,
+        )
+    if n_points and float(np.min(gather.coverage)) < 0.999 and stats["escaped_fraction"] > 0.01:
+        warnings.warn(
+            f"the scene is open: up to {100 * stats['escaped_fraction']:.0f} % of the reflected "
+            "light leaves it (to the sky) — fine outdoors, a modelling gap indoors",
+            LumijaxWarning, stacklevel=4,
+        )
+
+
+def _direct_in_chunks(scene: Scene, points, normals, report: Report) -> DirectLighting:
+    n = len(points)
+    if n <= POINT_CHUNK:
+        return direct_illuminance(scene, points, normals, progress=report)
+    parts = []
+    report(0, n)
+    for s in range(0, n, POINT_CHUNK):
+        parts.append(direct_illuminance(scene, points[s:s + POINT_CHUNK],
+                                        normals[s:s + POINT_CHUNK]))
+        report(min(s + POINT_CHUNK, n), n)
+    timing: dict[str, float] = {}
+    for d in parts:
+        for key, v in d.timing_s.items():
+            timing[key] = timing.get(key, 0.0) + v
+    return dataclasses.replace(
+        parts[0], by_network=np.concatenate([d.by_network for d in parts], axis=1),
+        shadow_rays=sum(d.shadow_rays for d in parts),
+        candidate_pairs=sum(d.candidate_pairs for d in parts), timing_s=timing)
+
+
+def _gather_in_chunks(points, normals, patches: Patches, caster, rays: int,
+                      report: Report) -> GatherOperator:
+    n = len(points)
+    if n <= POINT_CHUNK:
+        return build_gather(points, normals, patches, caster, rays=rays)
+    parts = []
+    report(0, n)
+    for i, s in enumerate(range(0, n, POINT_CHUNK)):
+        g = build_gather(points[s:s + POINT_CHUNK], normals[s:s + POINT_CHUNK], patches, caster,
+                         rays=rays, seed=i)
+        parts.append(dataclasses.replace(g, point=g.point + np.int32(s)))
+        report(min(s + POINT_CHUNK, n), n)
+    return dataclasses.replace(
+        parts[0], n_points=n, point=np.concatenate([g.point for g in parts]),
+        patch=np.concatenate([g.patch for g in parts]),
+        weight=np.concatenate([g.weight for g in parts]))
+
+
+def _check_before_meshing(scene: Scene, tri, size: float, settings: SolverSettings) -> None:
+    """The mesh and a hopeless operator refused before meshing (``_estimate``)."""
+    esize = None
+    if settings.operator_patches is not None:
+        esize = auto_patch_size(float(tri.areas.sum()), settings.operator_patches)
+        esize = esize if esize > size else None
+    check_before_meshing(tri.vertices, tri.group, size, element_size=esize,
+                         itemsize=8 if settings.precision == "float64" else 4,
+                         max_block=settings.max_block, file=scene.source)
+
+
+def _group_counts(tri, target_patches: int) -> np.ndarray:
+    """Patches per group of the mesh made for ``target_patches`` (the memory check's way to
+    try a setting without building anything on it)."""
+    size = auto_patch_size(float(tri.areas.sum()), target_patches)
+    return np.unique(mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size).group,
+                     return_counts=True)[1]
+
+
+def _two_levels(patches: Patches, tri, size: float,
+                operator_patches: int | None) -> tuple[Patches, Patches | None]:
+    """``(elements, fine)``: the operator's elements and the fine patches that gather from them
+    (``fine`` None: one level, when not asked for or when the elements would not be coarser)."""
+    if operator_patches is None:
+        return patches, None
+    esize = auto_patch_size(float(tri.areas.sum()), operator_patches)
+    if esize <= size:
+        return patches, None
+    elements = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=esize)
+    if elements.n >= patches.n:
+        return patches, None
+    return elements, patches
