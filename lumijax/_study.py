@@ -29,7 +29,9 @@ class Study:
 
     config: StudyConfig
     scene: Scene
-    load_s: float = 0.0
+    load_s: float = 0.0  # wall time (s) of load_study: config_s + scene_s
+    config_s: float = 0.0  # reading and validating the config
+    scene_s: float = 0.0  # building the scene from it (files, geometry, photometry)
 
     @property
     def name(self) -> str:
@@ -43,7 +45,8 @@ class Study:
     def with_design(self, design: Design) -> Study:
         """The same study at another design (its config text is not rewritten: the config
         stays the one loaded; ``scene`` is placed at ``design``)."""
-        return replace(self, scene=self.scene.with_design(design), load_s=0.0)
+        return replace(self, scene=self.scene.with_design(design), load_s=0.0, config_s=0.0,
+                       scene_s=0.0)
 
     def summary(self) -> dict:
         """What the study holds: counts, and each photometry's rated and integrated flux (lm)."""
@@ -69,8 +72,10 @@ def load_study(path: str | Path) -> Study:
     """
     t0 = time.perf_counter()
     cfg = load_config(path)
+    t1 = time.perf_counter()
     scene = build_scene(cfg)
-    return Study(cfg, scene, load_s=time.perf_counter() - t0)
+    t2 = time.perf_counter()
+    return Study(cfg, scene, load_s=t2 - t0, config_s=t1 - t0, scene_s=t2 - t1)
 
 
 def solver_settings(study: Study, **overrides) -> SolverSettings:
@@ -205,8 +210,8 @@ def compute(
         }
         for n, d in zip(sc.networks, design.dimmers, strict=True)
     }
-    timing = {"load": study.load_s, **lighting.stats.get("timing_s", {}),
-              "total": time.perf_counter() - t0}
+    timing = {"load": study.load_s, "config": study.config_s, "scene": study.scene_s,
+              **lighting.stats.get("timing_s", {}), "total": time.perf_counter() - t0}
     counts = {k: v for k, v in lighting.stats.items()
               if isinstance(v, int) and not isinstance(v, bool)}
     counts["grid_points"] = int(len(points))

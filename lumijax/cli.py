@@ -106,12 +106,14 @@ def _glare_table(glare, console) -> None:
 
 def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
          cache_dir: Path | None = None, optimise: bool = True, report: bool = True,
-         quick: bool = False) -> int:
+         quick: bool = False, timings: bool = False) -> int:
+    startup = _process_age()  # Python's start and the imports of lumijax, before this call
     from ._study import compute, load_study
     from .report import write_results
     from .report._write import ResultSet
 
     t0 = time.perf_counter()
+    marks: dict[str, float] = {}  # wall time (s) of this run's steps (--timings)
     # The folder is locked from the start (a second run into it stops at once, not after its
     # compute), and every file, the report included, is staged and swapped in as one set.
     with ResultSet(out) as rs:
@@ -119,13 +121,20 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         if quick:
             study = _quick(study)
         progress, update = _progress_bar(console, "lighting")
+        t = time.perf_counter()
         with progress:
             results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir)
+        marks["compute"] = time.perf_counter() - t
+        stages = dict(results.timing_s)  # the compute's (a fit that re-aims computes again)
         if optimise and study.config.optimise is not None:
             from .optimise import optimise as fit
 
+            t = time.perf_counter()
             results = fit(study, results, cache_dir=cache_dir).results
-        paths = write_results(results, rs, images=images)
+            marks["optimise"] = time.perf_counter() - t
+        t = time.perf_counter()
+        paths = write_results(results, rs, images=images, timings=marks)
+        marks["write"] = time.perf_counter() - t
         _summary_table(results, console)
         if results.optimisation is not None:
             _optimisation_table(results.optimisation, console)
@@ -139,14 +148,73 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
             t1 = time.perf_counter()
             write_report(study, results, rs.staging / "report.html", pictures=images)
             paths["report.html"] = rs.out / "report.html"
-            console.print(f"report: {paths['report.html']} ({time.perf_counter() - t1:.1f} s)")
+            marks["report"] = time.perf_counter() - t1
+            console.print(f"report: {paths['report.html']} ({marks['report']:.1f} s)")
+        t = time.perf_counter()
         rs.commit()
+        marks["write"] += time.perf_counter() - t  # swapping the set in is part of writing
     n = results.counts.get("shadow_rays", 0)
     console.print(
         f"wrote {len(paths)} files to {out} in {time.perf_counter() - t0:.1f} s "
         f"({n:,} shadow rays)"
     )
+    if timings:
+        _timings_table(stages, marks, startup, time.perf_counter() - t0, console)
     return 0
+
+
+def _process_age() -> float | None:
+    """Seconds since this process started (Linux's /proc), or None where that is unknown."""
+    import os
+
+    try:
+        stat = Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()
+        uptime = float(Path("/proc/uptime").read_text().split()[0])
+        return max(uptime - int(stat[19]) / os.sysconf("SC_CLK_TCK"), 0.0)
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+#: ``lumijax run --timings``: rows of the table, each the sum of these results.json
+#: ``timing_s`` keys (docs/results.md); the CLI adds start-up, optimise, images, write, report.
+TIMING_ROWS = (
+    ("config", ("config",)), ("scene", ("scene",)), ("meshing", ("mesh",)),
+    ("direct light", ("direct_points", "direct_patches")),
+    ("operator", ("memory_bound", "partition", "operator")),
+    ("spectral sampling", ("spectral_sampling",)), ("solve", ("solve",)),
+    ("gather", ("gather_rays", "gather", "final_gather")),
+)
+
+
+def _timings_table(timing: dict, marks: dict, startup: float | None, run_s: float,
+                   console) -> None:
+    """Where the run's time went: one row per stage (s and % of the total)."""
+    from rich.table import Table
+
+    rows: list[tuple[str, float]] = []
+    if startup is not None:
+        rows.append(("start-up + import", startup))
+    for label, keys in TIMING_ROWS:
+        if any(k in timing for k in keys):
+            rows.append((label, sum(timing.get(k, 0.0) for k in keys)))
+    staged = sum(v for label, v in rows[1 if startup is not None else 0:]
+                 if label not in ("config", "scene"))
+    rows.append(("compute, rest (grids, glare, compliance)", marks["compute"] - staged))
+    for key in ("optimise", "images"):
+        if key in marks:
+            rows.append((key, marks[key]))
+    rows.append(("write", marks["write"] - marks.get("images", 0.0)))
+    if "report" in marks:
+        rows.append(("report", marks["report"]))
+    total = run_s + (startup or 0.0)
+    rows.append(("other (locking, tables)", total - sum(v for _, v in rows)))
+    table = Table(title="where the time went (lumijax run --timings)", title_justify="left")
+    for col in ("stage", "s", "%"):
+        table.add_column(col, justify="left" if col == "stage" else "right")
+    for label, v in rows:
+        table.add_row(label, f"{v:.2f}", f"{100 * v / total:.0f}" if total > 0 else "")
+    table.add_row("total", f"{total:.2f}", "100")
+    console.print(table)
 
 
 def _quick(study):
@@ -298,6 +366,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--no-optimise", action="store_true",
                      help="skip the [optimise] step of the config (docs/optimise.md)")
     run.add_argument("--no-report", action="store_true", help="do not write report.html")
+    run.add_argument("--timings", action="store_true", help="print where the time went")
     report = sub.add_parser("report", help="compute a study and write report.html")
     report.add_argument("config", type=Path)
     report.add_argument("--out", type=Path, default=None, help="output folder (default: "
@@ -362,7 +431,7 @@ def main(argv: list[str] | None = None) -> int:
         return _run(args.config, out, images=not (args.no_images or args.quick),
                     shadows=not args.no_shadows, optimise=not args.no_optimise,
                     report=not (args.no_report or args.quick), quick=args.quick,
-                    console=console)
+                    timings=args.timings, console=console)
     except LumijaxError as e:
         print(f"lumijax: error: {e}", file=sys.stderr)
         return 1
