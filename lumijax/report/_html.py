@@ -155,18 +155,20 @@ def _optimisation_section(opt: dict, study, results) -> dict[str, Any]:
     }
 
 
-def _pictures(study, results, cameras, timings) -> tuple[list, list]:
+def _pictures(study: Study, results: Results, cameras, timings) -> tuple[list, list, dict]:
+    """The views of the cameras, notes, and each network's own picture."""
     from ._camera import cameras_of
     from ._surfaces import surface_light
     from ._views import png_bytes, render_falsecolour_view, render_realistic
 
-    views, notes = [], []
+    views: list = []
+    notes: list = []
     lighting = results.lighting
     if lighting is None:
-        return views, ["No surfaces to draw: the results carry no lighting solution."]
+        return views, ["No surfaces to draw: the results carry no lighting solution."], {}
     cams = cameras if cameras is not None else cameras_of(study)
     if not cams:
-        return views, notes
+        return views, notes, {}
     t0 = time.perf_counter()
     need_e = any(c.kind == "falsecolour" and c.quantity == "illuminance" for c in cams)
     surface = surface_light(results, illuminance=need_e)
@@ -199,7 +201,38 @@ def _pictures(study, results, cameras, timings) -> tuple[list, list]:
             views.append({"name": cam.name, "kind": kind, "src": _data_uri(png_bytes(img)),
                           "caption": caption})
         timings[f"view:{cam.name}"] = time.perf_counter() - t1
-    return views, notes
+    t1 = time.perf_counter()
+    alone = _network_views(surface, cams, dimmers, scene, results)
+    timings["network_views"] = time.perf_counter() - t1
+    return views, notes, alone
+
+
+#: Width (px) of each network's own picture; at most this many networks are pictured.
+NETWORK_VIEW_WIDTH = 560
+MAX_NETWORK_VIEWS = 24
+
+
+def _network_views(surface, cams, dimmers, scene, results) -> dict[str, dict[str, str]]:
+    """Each network alone at dimmer 1, through the first realistic camera (or the first one),
+    at the exposure metered for the whole design, so each picture is as bright as that
+    network's light is beside the others'."""
+    from ._views import auto_exposure, png_bytes, render_realistic
+
+    cam = next((c for c in cams if c.kind == "realistic"), cams[0])
+    w, h = cam.size
+    small = cam.replace(size=(NETWORK_VIEW_WIDTH, max(1, round(NETWORK_VIEW_WIDTH * h / w))))
+    ev = cam.exposure_ev if cam.exposure_ev is not None else auto_exposure(surface, dimmers, cam)
+    out = {}
+    names = list(results.networks)[:MAX_NETWORK_VIEWS]
+    for k, name in enumerate(names):
+        alone = np.zeros(len(dimmers))
+        alone[k] = 1.0
+        img, _ = render_realistic(surface, small, alone, scene, ev=ev, tone=cam.tone)
+        out[name] = {"src": _data_uri(png_bytes(img)),
+                     "caption": f"{name} alone at dimmer 100 % (the design has it at "
+                                f"{100 * dimmers[k]:.0f} %), through “{cam.name}” at the whole "
+                                f"design's exposure, EV {ev:.1f}."}
+    return out
 
 
 def _grid_pictures(study: Study, results: Results, timings) -> dict[str, dict[str, Any]]:
@@ -325,7 +358,8 @@ def report_context(study: Study, results: Results, *, cameras=None, pictures: bo
             "src": _data_uri(polar_plot(p, name)) if pictures else None,
         })
     timings["photometry"] = time.perf_counter() - t0
-    views, notes = _pictures(study, results, cameras, timings) if pictures else ([], [])
+    views, notes, alone = (_pictures(study, results, cameras, timings) if pictures
+                           else ([], [], {}))
     drawn = _grid_pictures(study, results, timings) if pictures else {}
     from ._gridplots import picture_kind
 
@@ -359,7 +393,8 @@ def report_context(study: Study, results: Results, *, cameras=None, pictures: bo
         "solver": {k: v for k, v in solver.items() if k != "wavelengths_nm"},
         "timings": timings,
         "schedule": _schedule_context(study),
-        "network_pages": _network_pages(study, results),
+        "network_pages": [{**n, "picture": alone.get(n["name"])}
+                          for n in _network_pages(study, results)],
         "first_sections": [x for x in extra if x.first],
         "sections": [x for x in extra if not x.first],
     }

@@ -130,9 +130,22 @@ def test_self_contained_with_pictures(two_rooms, tmp_path):
     assert [v["kind"] for v in ctx["views"]] == ["realistic", "falsecolour"]
     assert all(g["map"] for g in ctx["grids"])
     assert sum(ctx["timings"].values()) < 15.0
+    # each network alone: closed rooms side by side along x, seen from the south-west, so the
+    # left network's picture is bright on its left and dark on its right, and the other way
+    from io import BytesIO
+
+    from PIL import Image
+
+    halves = {}
+    for n in ctx["network_pages"]:
+        img = np.asarray(Image.open(BytesIO(base64.b64decode(
+            n["picture"]["src"].split(",", 1)[1]))).convert("L"), float)
+        halves[n["name"]] = img[:, : img.shape[1] // 2].mean(), img[:, img.shape[1] // 2:].mean()
+    assert halves["left"][0] > halves["left"][1] + 5
+    assert halves["right"][1] > halves["right"][0] + 5
     page = write_report(study, results, tmp_path / "report.html").read_text()
     srcs = re.findall(r'<img src="([^"]+)"', page)
-    assert len(srcs) == 2 + 2 + 1
+    assert len(srcs) == 2 + 2 + 1 + 2  # views, maps, polar diagram, each network alone
     for src in srcs:
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
