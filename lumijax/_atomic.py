@@ -56,7 +56,7 @@ def remove_orphans(folder: str | Path) -> list[Path]:
     Only names :func:`atomic_path` makes are considered, and never a live process's. A pid reused
     by an unrelated live process keeps its orphan until that process ends (the safe side).
     """
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(folder))
     except OSError:

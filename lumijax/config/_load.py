@@ -82,7 +82,7 @@ def _key_path(loc: tuple) -> str:
     Pydantic inserts the chosen union member's tag right after a list index (geometry, luminaires,
     grids) or after a photometry entry's name; those are not keys the user wrote.
     """
-    out, skip = "", set()
+    out, skip = "", set[int]()
     for i, part in enumerate(loc):
         prev = loc[i - 1] if i else None
         if isinstance(prev, int) and part in _UNION_TAGS and i not in skip:

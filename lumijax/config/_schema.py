@@ -317,7 +317,7 @@ class AreaLuminaire(_LuminaireBase):
     maintenance_factor: Annotated[float, Field(gt=0, le=1)] = 1.0
 
 
-def _luminaire_kind(v) -> str:
+def _luminaire_kind(v) -> str | None:
     # 'kind' is optional for the common case; an unknown kind is passed on so the error lists
     # the valid ones
     return v.get("kind", "photometric") if isinstance(v, dict) else getattr(v, "kind", None)

@@ -90,7 +90,7 @@ _RANKS = np.array([4, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512, 76
 
 
 def _pad_rank(r: int | np.integer) -> int:
-    return int(_RANKS[np.searchsorted(_RANKS, r)]) if r <= _RANKS[-1] else r
+    return int(_RANKS[np.searchsorted(_RANKS, r)]) if r <= _RANKS[-1] else int(r)
 
 
 def _chunking(n: int, per_pair: int, max_bytes: int) -> tuple[int, int]:
@@ -328,7 +328,8 @@ def build_operator(
     far, near, computed = _far_field(patches, part, s, caster, occluder_triangles, diam,
                                      counters, spread, dtype)
     # Bucket every pair by its padded shape, and preallocate (no second copy).
-    keys, lr_keys = {}, {}
+    keys: dict = {}
+    lr_keys: dict = {}
     for k, (ia, ib, uu, _) in enumerate(far):
         r = uu.shape[1]
         if r:  # r = 0: the pair exchanges nothing (no facing patches)
@@ -400,7 +401,7 @@ def build_operator(
         lowrank_mixed_visibility=counters.get("lowrank_mixed", 0),
         lowrank_rank_cap=counters.get("lowrank_rank_cap", 0),
         lowrank_rank_mean=float(np.mean(counters["lowrank_ranks"])) if counters.get("lowrank_ranks") else 0.0,
-        lowrank_rank_max=int(max(counters["lowrank_ranks"])) if counters.get("lowrank_ranks") else 0,
+        lowrank_rank_max=int(np.max(counters["lowrank_ranks"])) if counters.get("lowrank_ranks") else 0,
         lowrank_entries=lr_entries,
         lowrank_time_s=counters.get("lowrank_time", 0.0),
         lowrank_shadowed=counters.get("lowrank_shadowed", 0),

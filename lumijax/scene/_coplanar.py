@@ -126,13 +126,13 @@ def _samples(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centroids of the k² congruent sub-triangles of each triangle, ``(T, k², 3)``, and the
     fraction of the area each stands for."""
     k = _SAMPLES
-    bary = []
+    weights: list[tuple[float, float]] = []
     for i in range(k):
         for j in range(k - i):
-            bary.append(((i + 1 / 3) / k, (j + 1 / 3) / k))  # upright sub-triangles
+            weights.append(((i + 1 / 3) / k, (j + 1 / 3) / k))  # upright sub-triangles
             if i + j < k - 1:
-                bary.append(((i + 2 / 3) / k, (j + 2 / 3) / k))  # inverted ones
-    bary = np.array(bary)  # (k², 2): weights of v1 and v2
+                weights.append(((i + 2 / 3) / k, (j + 2 / 3) / k))  # inverted ones
+    bary = np.array(weights)  # (k², 2): weights of v1 and v2
     p = (v[:, None, 0] + bary[None, :, 0, None] * (v[:, None, 1] - v[:, None, 0])
          + bary[None, :, 1, None] * (v[:, None, 2] - v[:, None, 0]))
     return p, np.full(len(bary), 1.0 / len(bary))
@@ -185,7 +185,7 @@ def _covered_pairs(v, n, area, item, members, distance, cos_min) -> dict[tuple[i
     lies_on = np.unique(np.column_stack([pid[hit], item[t[hit]]]), axis=0)
     if not len(lies_on):
         return {}
-    on = {}
+    on: dict[tuple[int, int], float] = {}
     for (a, b), s in zip(map(tuple, np.column_stack([owner[lies_on[:, 0]], lies_on[:, 1]])),
                          weight[lies_on[:, 0]], strict=True):
         on[(int(a), int(b))] = on.get((int(a), int(b)), 0.0) + float(s)
