@@ -66,8 +66,8 @@ class ConstraintConfig(BaseModel):
         allowed = CRITERION_SENSE[self.criterion]
         for side in ("min", "max"):
             if getattr(self, side) is not None and side not in allowed:
-                raise ValueError(f"{self.criterion!r} takes only {' and '.join(allowed)!s}, "
-                                 f"not {side!r}")
+                raise ValueError(f"criterion {self.criterion!r} takes only a "
+                                 f"{' or '.join(repr(a) for a in allowed)} bound, not {side!r}")
         if self.min is not None and self.max is not None and self.min > self.max:
             raise ValueError(f"'min' ({self.min:g}) exceeds 'max' ({self.max:g}): no design "
                              "can meet both")

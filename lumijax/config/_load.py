@@ -254,7 +254,8 @@ def _check_optimise(cfg: StudyConfig, fail) -> None:
     wants = [g for g in cfg.grids if g.target_lux is not None or g.target_csv is not None
              or g.min_lux is not None or g.max_lux is not None or g.uniformity_min is not None
              or g.max_luminance_cdm2 is not None]
-    if not wants and opt.max_luminance_cdm2 is None and opt.energy_weight == 0:
+    if (not wants and opt.max_luminance_cdm2 is None and opt.energy_weight == 0
+            and not opt.constraints):  # [[optimise.constraints]] are goals too
         fail("optimise", "nothing to optimise: give a grid a target (target_lux, target_csv, "
                          "min_lux, max_lux, uniformity_min or max_luminance_cdm2), "
                          "[optimise] max_luminance_cdm2 or energy_weight")
