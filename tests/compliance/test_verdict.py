@@ -135,13 +135,14 @@ def test_quantities_are_differentiable(office):
     jac = jax.jacfwd(lambda d: model.quantities(d))(jnp.asarray(d0, jnp.float32))
     assert len(jac) >= 12
     h = 1e-2
+    v0 = values(jnp.asarray(d0, jnp.float32))
     for k in range(2):
         e = np.zeros(2)
         e[k] = h
         hi, lo = values(jnp.asarray(d0 + e, jnp.float32)), values(jnp.asarray(d0 - e, jnp.float32))
         for key, g in jac.items():
             fd = (float(hi[key]) - float(lo[key])) / (2 * h)
-            scale = max(1.0, abs(float(values(jnp.asarray(d0, jnp.float32))[key])))
+            scale = max(1.0, abs(float(v0[key])))
             assert float(g[k]) == pytest.approx(fd, rel=2e-2, abs=1e-4 * scale), (key, k)
 
 
