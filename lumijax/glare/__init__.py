@@ -14,6 +14,7 @@ from ._model import (
     GlareRatings as GlareRatings,
     NearSourceWarning as NearSourceWarning,
     build_glare_model as build_glare_model,
+    worst_ratings as worst_ratings,
 )
 from ._observers import Observer as Observer, build_observers as build_observers
 from ._position import (

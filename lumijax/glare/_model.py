@@ -48,7 +48,7 @@ from ._ratings import (
     ugr_of_sum,
 )
 
-__all__ = ["GlareModel", "GlareRatings", "NearSourceWarning", "build_glare_model"]
+__all__ = ["GlareModel", "GlareRatings", "NearSourceWarning", "build_glare_model", "worst_ratings"]
 
 
 class NearSourceWarning(LumijaxWarning):
@@ -199,6 +199,14 @@ class GlareModel(eqx.Module):
         order = self.source_order
         return (jnp.concatenate(ugr_parts, axis=1)[:, order],
                 jnp.concatenate(veil_parts, axis=1)[:, order])
+
+
+def worst_ratings(model: GlareModel, design) -> dict[str, Array]:
+    """``{"ugr", "gr", "ti"}``: each observer's worst rating over its directions at ``design``
+    (pure JAX, traceable: the constraint functions of a design to ``ugr_max``, ``gr_max``,
+    ``ti_max``; a Design with traced leaves differentiates through it)."""
+    r = model.ratings(design)
+    return {"ugr": model.worst(r.ugr), "gr": model.worst(r.gr), "ti": model.worst(r.ti)}
 
 
 @eqx.filter_jit

@@ -1,11 +1,11 @@
 """lumijax's UGR against Radiance's evalglare on fisheye renderings of the same room.
 
-    python studies/glare/evalglare_room.py [--size 600] [--out DIR]
+    python studies/glare/evalglare_room.py [--size 300] [--out DIR]
 
 An 8 × 6 × 3 m room (every surface grey ρ = 0.5) lit by six 0.6 × 0.6 m Lambertian panels of
 luminance 3,000 cd/m² just under the ceiling. lumijax computes the study (radiosity, UGR per
 observer); Radiance renders the same room from each eye (``rpict -vta``, a 180° angular fisheye,
-``-ab 3``) with the panels as ``light`` polygons of the same luminance (radiance = L / 179, the
+``-ab 2``) with the panels as ``light`` polygons of the same luminance (radiance = L / 179, the
 white efficacy Radiance uses) and ``evalglare -d`` rates the picture. Printed and written to
 ``DIR/evalglare.json``: per observer, the UGR of both, the panels' luminance and solid angle
 as each sees them, and evalglare's UGR recomputed with CIE 117's background L_b = E_ind / π
@@ -107,8 +107,8 @@ def evalglare(work: Path, name: str, eye, sight, size: int) -> dict:
     if not (pic.exists() and pic.stat().st_size > 10_000):  # --out DIR keeps the renderings
         with open(pic, "wb") as f:
             subprocess.run([_bin("rpict"), *view, "-x", str(size), "-y", str(size), "-ps", "1",
-                            "-ab", "3", "-ad", "2048", "-as", "512", "-aa", "0.08", "-ar",
-                            "256", "-lw", "1e-4", str(oct_)], stdout=f, check=True, env=env)
+                            "-ab", "2", "-ad", "1024", "-as", "256", "-aa", "0.12", "-ar",
+                            "64", "-lw", "1e-3", str(oct_)], stdout=f, check=True, env=env)
     # sources: pixels above 1,000 cd/m² (the panels are 3,000; the brightest stone ~100)
     res = subprocess.run([_bin("evalglare"), "-b", "1000", "-d", str(pic)], capture_output=True,
                          text=True, check=True, env=env).stdout
@@ -139,7 +139,7 @@ def _parse(text: str) -> dict:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", type=int, default=600, help="fisheye pixels a side")
+    ap.add_argument("--size", type=int, default=300, help="fisheye pixels a side")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
 

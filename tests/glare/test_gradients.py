@@ -74,3 +74,14 @@ def test_gradient_in_dimmers_aims_and_levels_matches_finite_differences(model_an
     assert np.all(np.abs(jac[:, :2]) > 0.05)  # both dimmers move both ratings
     assert np.abs(jac[:, 2:6]).max() > 0.05  # and so do the aims
     np.testing.assert_allclose(jac, fd, rtol=2e-3, atol=1e-5)
+
+
+def test_worst_ratings_are_the_largest_over_the_fan(model_and_design):
+    from lumijax.glare import worst_ratings
+
+    model, design = model_and_design
+    r = model(design)
+    w = jax.jit(lambda d: worst_ratings(model, d))(design)
+    assert float(w["gr"][0]) == pytest.approx(float(jnp.max(r.gr)), rel=1e-9)
+    assert float(w["ugr"][0]) == pytest.approx(float(jnp.max(r.ugr)), rel=1e-9)
+    assert float(r.gr[0]) != pytest.approx(float(r.gr[1]), abs=0.1)  # the fan's views differ

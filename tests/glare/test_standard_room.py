@@ -4,7 +4,7 @@ written here from the CIE definitions (the file's candela table interpolated by 
 position index from H/R and T/R, the flat opening's projected area), not lumijax's code path.
 
 The standard room: luminaires H = 2 m above the eye (1.2 m), spaced 0.25 H over X = 4H
-(along the line of sight) by Y = 8H, the observer at the middle of a wall looking along the
+(along the line of sight) by Y = 4H, the observer at the middle of a wall looking along the
 room. The background L_b is set here (the tabular method's L_b comes from its room flux
 transfer, not modelled): what is checked is everything that depends on the photometry.
 """
@@ -27,7 +27,7 @@ from lumijax.scene import build_scene
 
 H, EYE = 2.0, 1.2
 S = 0.25 * H
-X, Y = 4 * H, 8 * H
+X, Y = 4 * H, 4 * H
 LB = 40.0  # cd/m², set by hand
 FILES = ["er_fluorescent_luminaire.ldt", "lx_Testlamp_Isym3_symmetryOverC90C270axis.ldt"]
 
