@@ -59,11 +59,24 @@ name = "eye"
 kind = "points"
 points = [[0.5, 2, 1.2]]
 normals = [1, 0, 0]
+[[grids]]
+name = "floor"
+kind = "plane"
+origin = [0, 0, 0.01]
+u = [6, 0, 0]
+v = [0, 4, 0]
+nu = 6
+nv = 4
 [[observers]]
 name = "desk"
 position = [0.5, 2, 1.2]
 direction = [1, 0, 0]
 fan = {{ azimuths_deg = [0, 180] }}
+[[observers]]
+name = "driver"
+position = [0.5, 1, 1.5]
+direction = [1, 0, -0.02]
+road_grid = "floor"
 """)
     study = lumijax.load_study(d / "study.toml")
     return lumijax.compute(study, cache_dir=d / "cache")
@@ -134,10 +147,24 @@ def test_report_section_has_the_table_and_a_fisheye(results):
     worst = results.glare.to_dict()["desk"]["worst"]["ugr"]["value"]
     assert section.id == "glare" and "<td>desk</td>" in section.html
     assert f"<td>{worst:.1f}</td>" in section.html
-    assert section.html.count('<img src="data:image/png;base64,') == 1
+    assert section.html.count('<img src="data:image/png;base64,') == 2  # one per observer
     seen = results.glare.seen_sources(0)
     assert [s["name"] for s in seen] == ["A"]
     # a Lambertian-free square of 1000 cd: L = I / (A cos γ) toward the eye
     d = np.subtract([3, 2, 2.8], [0.5, 2, 1.2])
     cos_g = 1.6 / np.linalg.norm(d)
     assert seen[0]["luminance_cdm2"] == pytest.approx(I0 / (0.04 * cos_g), rel=1e-3)
+
+
+def test_threshold_increment_from_a_road_grid(results):
+    """TI with L_av = ρ Ē / π of the floor grid (ρ of the floor's own material, found under
+    the grid by a ray): this bright floor is above 5 cd/m², where CIE 140 gives
+    TI = 95 L_v / L_av^1.05 instead of 65 L_v / L_av^0.8."""
+    g = results.glare
+    v = int(g.views_of(1)[0])
+    lav = RHO * float(results.grids["floor"].illuminance_lux.mean()) / math.pi
+    assert g.ratings.road_cdm2[v] == pytest.approx(lav, rel=1e-6)
+    assert lav > 5.0
+    want = 95 * g.ratings.veiling_cdm2[v] / lav ** 1.05
+    assert g.ratings.ti[v] == pytest.approx(want, rel=1e-6) and want > 0
+    assert g.to_dict()["driver"]["worst"]["ti"]["value"] == pytest.approx(want, rel=1e-6)
