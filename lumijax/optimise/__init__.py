@@ -1,5 +1,6 @@
 """Fit dimmers, aims and levels to the light a designer asks for (docs/optimise.md)."""
 
+from ._calibrate import Calibration as Calibration, calibrate as calibrate
 from ._models import AimLight as AimLight, DimmerLight as DimmerLight
 from ._objective import Objective as Objective
 from ._optimise import Optimisation as Optimisation, optimise as optimise
@@ -14,4 +15,4 @@ from ._targets import GridGoal as GridGoal, grid_goals as grid_goals
 
 __all__ = ["optimise", "Optimisation", "Objective", "DimmerLight", "AimLight", "minimise",
            "SOLVERS", "GridGoal", "grid_goals", "print_constrained",
-           "sensitivity", "Sensitivity", "what_moves_the_needle"]
+           "sensitivity", "Sensitivity", "what_moves_the_needle", "calibrate", "Calibration"]
