@@ -22,7 +22,7 @@ import numpy as np
 
 from ..config._schema import _GridBase
 from ..errors import LumijaxError
-from ..results import GridResult
+from ..results import CRITERIA_SLACK, GridResult
 
 __all__ = ["GridPicture", "grid_picture", "picture_kind", "path_legs", "PictureKind"]
 
@@ -161,10 +161,11 @@ def profile_png(grid: GridResult, config=None, *, title: str, size=(1200, 560)) 
                         gridspec_kw={"width_ratios": ratios})[0]
     top = max([float(e.max())] + list(limits.values())) * 1.15 or 1.0
     bad = np.zeros(len(e), bool)
+    # judged as the report's tables judge them: with the criteria's slack
     if "max_lux" in limits:
-        bad |= e > limits["max_lux"]
+        bad |= e > limits["max_lux"] * (1 + CRITERIA_SLACK)
     if "min_lux" in limits:
-        bad |= e < limits["min_lux"]
+        bad |= e < limits["min_lux"] * (1 - CRITERIA_SLACK)
     for i, (ax, leg) in enumerate(zip(axes, legs, strict=True)):
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p[leg], axis=0), axis=1))])
         ax.plot(s, e[leg], color=ACCENT, lw=2.0, zorder=3)

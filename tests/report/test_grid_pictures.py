@@ -114,6 +114,77 @@ def test_plan_colours_each_point_by_its_lux():
     assert np.array_equal(np.argsort(-centres[:, 0]), np.argsort(DESKS[:, 1]))
 
 
+KINDS_STUDY = """
+[study]
+name = "kinds"
+[materials.wall]
+reflectance = 0.5
+[photometry.iso]
+kind = "isotropic"
+flux_lm = 1000
+[networks.a]
+[[geometry]]
+name = "room"
+kind = "box"
+min = [0, 0, 0]
+max = [6, 4, 3]
+normals = "inward"
+material = "wall"
+[[luminaires]]
+name = "L1"
+photometry = "iso"
+network = "a"
+position = [3, 2, 2.5]
+[[grids]]
+name = "plane"
+kind = "plane"
+origin = [0, 0, 0.8]
+u = [6, 0, 0]
+v = [0, 4, 0]
+nu = 6
+nv = 4
+[[grids]]
+name = "points"
+kind = "points"
+points = [[1, 1, 0.8], [4, 3, 0.8], [2, 3.5, 0.8]]
+[[grids]]
+name = "sensor"
+kind = "sensor"
+sensor = "cylindrical"
+points = [[1, 1, 1.2], [2, 1, 1.2], [3, 1, 1.2], [4, 1, 1.2], [5, 1, 1.2]]
+[[grids]]
+name = "area"
+kind = "area"
+origin = [0, 0, 0.8]
+u = [6, 0, 0]
+v = [0, 4, 0]
+[[grids]]
+name = "surface"
+kind = "surface"
+geometry = "room"
+spacing = 1.5
+"""
+
+
+def test_every_grid_kind_the_config_accepts_is_drawn(write_study):
+    import typing
+
+    from lumijax import load_study
+    from lumijax.config._schema import Grid
+
+    study = load_study(write_study(KINDS_STUDY))
+    kinds = {typing.get_args(m.model_fields["kind"].annotation)[0]
+             for m in typing.get_args(typing.get_args(Grid)[0])}
+    assert kinds == {g.kind for g in study.config.grids}, "a grid kind is missing here"
+    for g in study.scene.grids:
+        lux = 10.0 + g.points[:, 0] + 2.0 * g.points[:, 1]  # any field that varies
+        pic = grid_picture(_grid(g.name, g.points, g.normals, lux, g.shape), None,
+                           title=g.name, size=(600, 420))
+        img = _image(pic.png)
+        coloured = np.ptp(img, axis=-1) > 0.15  # viridis or the profile's blue, not text
+        assert coloured.mean() > 0.003, (g.name, pic.kind)  # a blank one: its legend only
+
+
 def test_results_folder_draws_a_path_grid(tmp_path):
     from lumijax.report import write_results
 
