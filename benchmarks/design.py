@@ -1,0 +1,95 @@
+"""Constrained design benchmark (docs/optimise.md, "Design to a standard"): the least power
+meeting each grid's Eavg floor (its target, else 60 % of the start's average) and a U0 floor
+(80 % of the start's) on the bundled demo study (``lumijax demo``'s courtyard corner), over
+the dimmers alone and over dimmers + aims (±5°).
+
+    python benchmarks/design.py [--quick] [--study PATH] [--aims]
+
+Prints: variables, constrained steps (SLSQP), function evaluations, wall time of the design
+step (after the study's compute; its first call includes compilation), the largest exact
+constraint violation at the end, the verdict and the objective before → after. Goal: dimmer-only
+designs under 2 s, aims under 5 minutes on this machine. ``--quick``
+``--quick`` runs the optimiser tests' small facade instead (a smoke run, numbers not for the
+record).
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+from pathlib import Path
+
+import lumijax
+from lumijax.cli import default_study_path
+from lumijax.optimise import optimise
+
+
+def constraints_for(results, start_stats):
+    out = []
+    for name, g in results.grids.items():
+        s = start_stats[name]
+        floor = g.target_lux if g.target_lux is not None else 0.6 * s["avg"]
+        if floor > 0:
+            out.append({"criterion": "avg", "grid": name, "min": float(floor)})
+        if s["u0"] > 0:
+            out.append({"criterion": "u0", "grid": name, "min": round(0.8 * s["u0"], 4)})
+    return out
+
+
+def run(study_path: Path, *, aims: bool, quick: bool):
+    study = lumijax.load_study(study_path)
+    t = time.perf_counter()
+    results = lumijax.compute(study)
+    t_compute = time.perf_counter() - t
+    start = {n: g.stats for n, g in results.grids.items()}
+    cons = constraints_for(results, start)
+    variables = ["dimmers", "aims"] if aims else ["dimmers"]
+    kw = dict(objective="power", constraints=cons, variables=variables)
+    if aims:
+        kw.update(tilt_range_deg=(-5.0, 5.0), pan_range_deg=(-5.0, 5.0))
+    t = time.perf_counter()
+    opt = optimise(study, results, **kw)
+    t_design = time.perf_counter() - t
+    rec = opt.constrained
+    worst = max([max(0.0, -r["margin"]) for r in rec["constraints"]], default=0.0)
+    return dict(variables="+".join(variables), n_constraints=len(cons),
+                steps=rec["iterations"], evaluations=rec["evaluations"],
+                compute_s=t_compute, design_s=t_design, violation=worst,
+                verdict=rec["verdict"], before=rec["objective_start"],
+                after=rec["objective_end"])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--aims", action="store_true", help="also dimmers + aims")
+    ap.add_argument("--study", type=Path, default=default_study_path())
+    args = ap.parse_args()
+    if args.quick:  # the optimiser tests' small facade (4 spots, 2 networks), for a smoke run
+        import sys
+        import tempfile
+
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+        from lumijax.photometry import spot, write_ies
+        from tests.optimise.conftest import facade_text
+
+        d = Path(tempfile.mkdtemp())
+        write_ies(spot(3000, beam_deg=30), d / "spot.ies")
+        args.study = d / "facade.toml"
+        args.study.write_text(facade_text(optimise=None), encoding="utf-8")
+    print(f"# constrained design: {args.study} ({platform.processor() or platform.machine()})")
+    print("| variables | constraints | steps | evaluations | compute (s) | design (s) | "
+          "worst violation | verdict | power (W) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for aims in ([False, True] if args.aims else [False]):
+        r = run(args.study, aims=aims, quick=args.quick)
+        print(f"| {r['variables']} | {r['n_constraints']} | {r['steps']} | {r['evaluations']} "
+              f"| {r['compute_s']:.1f} | {r['design_s']:.2f} | {r['violation']:.2e} | "
+              f"{r['verdict']} | {r['before']:.1f} → {r['after']:.1f} |")
+    print("\ngoal: dimmer-only design < 2 s; aims < 5 min (timings on a shared machine are "
+          "contended: run alone)")
+
+
+if __name__ == "__main__":
+    main()
