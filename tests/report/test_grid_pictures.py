@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 
 import numpy as np
 import pytest
@@ -176,13 +177,28 @@ def test_every_grid_kind_the_config_accepts_is_drawn(write_study):
     kinds = {typing.get_args(m.model_fields["kind"].annotation)[0]
              for m in typing.get_args(typing.get_args(Grid)[0])}
     assert kinds == {g.kind for g in study.config.grids}, "a grid kind is missing here"
+    grids = {}
     for g in study.scene.grids:
         lux = 10.0 + g.points[:, 0] + 2.0 * g.points[:, 1]  # any field that varies
-        pic = grid_picture(_grid(g.name, g.points, g.normals, lux, g.shape), None,
-                           title=g.name, size=(600, 420))
+        grids[g.name] = _grid(g.name, g.points, g.normals, lux, g.shape)
+        pic = grid_picture(grids[g.name], None, title=g.name, size=(600, 420))
         img = _image(pic.png)
         coloured = np.ptp(img, axis=-1) > 0.15  # viridis or the profile's blue, not text
         assert coloured.mean() > 0.003, (g.name, pic.kind)  # a blank one: its legend only
+    # the grids that are not mapped list their values, point by point, in the report
+    from lumijax.report import render_report, report_context
+
+    results = Results("kinds", grids, {"n": {"dimmer": 1.0, "flux_lm": 1.0, "luminaires": []}})
+    page = render_report(report_context(study, results, pictures=False))
+    body = page.split('<section id="values">', 1)[1].split("</section>", 1)[0]
+    listed = re.findall(r"<h3>(.*?)</h3>", body)
+    assert set(listed) == {n for n, g in grids.items()
+                           if picture_kind(g.points, g.normals, g.shape) != "map"}
+    assert "points" in listed and "sensor" in listed and "plane" not in listed
+    sensor = body.split("<h3>sensor</h3>", 1)[1].split("</table>", 1)[0]
+    cells = re.findall(r"<td[^>]*>([^<]*)</td>", sensor)
+    for x in range(1, 6):  # the sensors at x = 1 … 5 m, y = 1 m: 10 + x + 2y lx
+        assert f"{x:.3g}, 1, 1.2" in cells and f"{12 + x:.3g}" in cells, x
 
 
 def test_results_folder_draws_a_path_grid(tmp_path):
