@@ -42,17 +42,23 @@ def test_bad_compliance_input(old, new, key, words):
     assert e.value.line is not None or key.count(".") <= 1
 
 
-def test_cli_prints_the_verdict(tmp_path, capsys):
+def test_cli_prints_the_verdict(office, tmp_path, capsys, monkeypatch):
+    """``lumijax run`` prints the verdict of what it computed, says "not compliant", exits 0
+    and writes the verdict to results.json (compute replaced by the session's office: the
+    printing is under test here, the computing in test_verdict)."""
+    import json
+
+    import lumijax._study
     from lumijax.cli import main
 
+    monkeypatch.setattr(lumijax._study, "compute", lambda study, **kw: office[1])
     cfg = tmp_path / "office.toml"
-    # direct light only: the verdict's printing is under test, not the solve
-    cfg.write_text(OFFICE.replace("cache = false", "cache = false\nindirect = false"))
+    cfg.write_text(OFFICE)
     assert main(["run", str(cfg), "--out", str(tmp_path / "out"), "--no-report",
                  "--no-images"]) == 0
     text = capsys.readouterr().out
-    assert "EN 12464-1" in text and "not compliant" in text and "CIE 150" in text
-    import json
-
+    assert "EN 12464-1" in text and "CIE 150" in text
+    assert "not compliant: " in text and "office.Em" in text
     doc = json.loads((tmp_path / "out" / "results.json").read_text())
     assert doc["compliance"]["compliant"] is False
+    assert len(doc["compliance"]["criteria"]) == len(office[1].compliance.rows)
