@@ -130,3 +130,16 @@ def test_contradictory_settings_are_refused_when_the_config_loads(tmp_path, opti
     with pytest.raises(ConfigError, match=match) as err:
         lumijax.load_study(path)
     assert (err.value.key or "").startswith(key)
+
+
+def test_multiple_starts_agree_on_a_convex_design(room):
+    """Dimmers only: the problem is convex (linear objective, concave soft minimum, linear
+    average), so every start reaches the one optimum: three starts, three agree."""
+    d, _, results = room
+    study = _study(d, "starts", grid_extra="target_lux = 20\nmin_lux = 13",
+                   optimise='objective = "power"\nstarts = 3\nseed = 4')
+    rec = lumijax.optimise(study, results).constrained
+    assert rec["starts"]["count"] == 3 and rec["starts"]["feasible"] == 3
+    assert rec["starts"]["agreed"] == 3
+    objs = rec["starts"]["objectives"]
+    assert max(objs) - min(objs) <= 1e-3 * min(objs)
