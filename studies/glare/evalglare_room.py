@@ -119,7 +119,7 @@ def _parse(text: str) -> dict:
     lines = [ln for ln in text.splitlines() if ln.strip()]
     sources, figures = [], {}
     for i, ln in enumerate(lines):
-        if ln.startswith("No pixels"):
+        if "No pixels" in ln:  # the header of the per-source table
             head = ln.split()
             for row in lines[i + 1:]:
                 parts = row.split()
