@@ -56,7 +56,9 @@ def _check_array(arr: np.ndarray, key: str) -> None:
 
 def grid_stats(lux: Float[np.ndarray, " points"]) -> dict[str, float]:
     """Average, minimum and maximum illuminance (lx), uniformity U0 = Emin/Eavg and
-    diversity Ud = Emin/Emax (EN 12464-1 names). Uniformities are 0 on an unlit grid."""
+    diversity Ud = Emin/Emax. U0 is EN 12464-1's uniformity; Ud is a diversity from other
+    codes (the SLL Code for Lighting; EN 12193's U1), not EN 12464-1's. Uniformities are 0 on
+    an unlit grid."""
     lux = np.asarray(lux, np.float64)
     avg, lo, hi = float(lux.mean()), float(lux.min()), float(lux.max())
     return {
