@@ -70,7 +70,8 @@ def main():
         import sys
         import tempfile
 
-        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+        root = Path(__file__).resolve().parents[1]
+        sys.path[:0] = [str(root), str(root / "tests")]  # conftest imports ``helpers``
         from lumijax.photometry import spot, write_ies
         from tests.optimise.conftest import facade_text
 
