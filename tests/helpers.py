@@ -17,8 +17,8 @@ import numpy as np
 from beartype import BeartypeConf, beartype
 
 __all__ = ["area_lamp", "box", "box_room", "central_difference", "lamp", "material", "mesh",
-           "network", "photometry", "pinhole_pixel", "plane_grid", "point_grid", "rectangle",
-           "study_text", "table", "toml_value", "typechecker"]
+           "network", "observer", "photometry", "pinhole_pixel", "plane_grid", "point_grid",
+           "rectangle", "study_text", "table", "toml_value", "typechecker"]
 
 #: The runtime checker pyproject's ``--jaxtyping-packages`` applies: beartype with PEP 484's
 #: numeric tower (an int is accepted where a float is annotated, as mypy reads it).
@@ -172,3 +172,7 @@ def point_grid(name: str, pts, normals=None, **keys) -> str:
     """A grid of the listed points (m), facing ``normals`` (one, or one a point)."""
     return table("[[grids]]", name=name, kind="points", points=pts, normals=normals, **keys)
 
+
+def observer(name: str, position, **keys) -> str:
+    """A glare observer's eye at ``position`` (m); ``keys`` (direction, look_at, fan, …)."""
+    return table("[[observers]]", name=name, position=position, **keys)

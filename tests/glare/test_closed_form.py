@@ -7,15 +7,15 @@ rating formulas, each written out here from the standards' text, not through the
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _glare import rect, scene_of, write_with_opening
+from helpers import lamp, photometry
 
-from lumijax.config import parse_config
 from lumijax.glare import (
     NoLuminousSizeWarning,
     Observer,
@@ -23,27 +23,17 @@ from lumijax.glare import (
     guth_index,
     position_index,
 )
-from lumijax.photometry import LuminousOpening, isotropic, write_ies
-from lumijax.scene import build_scene
+from lumijax.photometry import LuminousOpening, isotropic
 
 I0 = 1000.0  # cd, every direction
 SIDE = 0.2  # m, a square opening facing down
-SQUARE = LuminousOpening(SIDE, SIDE, 0.0, "rectangle")
+SQUARE = rect(SIDE)
 
 
-def _scene(tmp_path, opening=SQUARE, extra=""):
-    phot = dataclasses.replace(isotropic(4 * math.pi * I0), opening=opening)
-    write_ies(phot, tmp_path / "sq.ies")
-    cfg = parse_config(f"""
-[photometry.sq]
-file = "{tmp_path / 'sq.ies'}"
-[[luminaires]]
-name = "L"
-photometry = "sq"
-position = [0, 0, 3]
-network = "a"
-{extra}""")
-    return build_scene(cfg)
+def _scene(tmp_path, opening=SQUARE):
+    """One isotropic luminaire L of I0 cd at (0, 0, 3) m with ``opening``, nothing else."""
+    ies = write_with_opening(tmp_path / "sq.ies", isotropic(4 * math.pi * I0), opening)
+    return scene_of(photometry("sq", file=ies), lamp("L", [0, 0, 3], "a", "sq"))
 
 
 def _hand(eye, forward, lum=(0.0, 0.0, 3.0)):

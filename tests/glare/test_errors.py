@@ -4,32 +4,23 @@ a luminaire."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import pytest
+from _glare import rect, scene_of, write_with_opening
+from helpers import box, lamp, material, observer, photometry, point_grid, study_text, table
 
 from lumijax import ConfigError, GeometryError
 from lumijax.config import parse_config
 from lumijax.glare import NearSourceWarning, Observer, build_glare_model, build_observers
-from lumijax.photometry import LuminousOpening, isotropic, write_ies
+from lumijax.photometry import isotropic
 from lumijax.scene import build_scene
 
-BASE = """
-[materials.wall]
-reflectance = 0.5
-[groups.g]
-translate = [10, 0, 0]
-[[geometry]]
-kind = "box"
-min = [2, 1, 0]
-max = [3, 2, 2]
-material = "wall"
-[[grids]]
-name = "floor"
-kind = "points"
-points = [[0, 0, 0]]
-"""
+# a solid 1 × 1 × 2 m box at x 2..3, y 1..2; a group 10 m along x; one grid point
+BASE = study_text(material("wall", 0.5), table("groups.g", translate=[10, 0, 0]),
+                  box([2, 1, 0], [3, 2, 2], normals=None),
+                  point_grid("floor", [[0, 0, 0]]))
+EYE = [0, 0, 1.5]  # m, outside the box
 
 
 @pytest.mark.parametrize(("body", "key", "words"), [
@@ -46,7 +37,7 @@ points = [[0, 0, 0]]
      "not both"),
 ])
 def test_bad_observer_tables_name_the_key(body, key, words):
-    text = BASE + f'[[observers]]\nname = "o"\nposition = [0, 0, 1.5]\n{body}\n'
+    text = BASE + observer("o", EYE) + body + "\n"
     with pytest.raises(ConfigError) as err:
         parse_config(text, source="study.toml")
     assert err.value.key == key and words in err.value.message
@@ -54,42 +45,31 @@ def test_bad_observer_tables_name_the_key(body, key, words):
 
 
 def test_duplicate_observer_names_are_refused():
-    one = '[[observers]]\nname = "o"\nposition = [0, 0, 1.5]\ndirection = [1, 0, 0]\n'
+    one = observer("o", EYE, direction=[1, 0, 0])
     with pytest.raises(ConfigError, match="duplicate observer name 'o'") as err:
         parse_config(BASE + one + one)
     assert err.value.key == "observers[1].name"
 
 
 def test_group_frame_places_the_eye_and_turns_the_fan():
-    cfg = parse_config(BASE + '[[observers]]\nname = "o"\nposition = [0, 0, 1.5]\n'
-                       'direction = [1, 0, 0]\ngroup = "g"\nfan = { step_deg = 90 }\n')
+    cfg = parse_config(BASE + observer("o", EYE, direction=[1, 0, 0], group="g",
+                                       fan={"step_deg": 90}))
     (o,) = build_observers(cfg)
     assert o.eye.tolist() == [10.0, 0.0, 1.5]
     assert o.directions.round(12).tolist() == [[1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]]
 
 
 def test_an_eye_inside_a_solid_is_refused():
-    cfg = parse_config(BASE + '[[observers]]\nname = "ok"\nposition = [0, 0, 1.5]\n'
-                       'direction = [1, 0, 0]\n[[observers]]\nname = "inside"\n'
-                       'position = [2.5, 1.5, 1]\ndirection = [1, 0, 0]\n')
+    cfg = parse_config(BASE + observer("ok", EYE, direction=[1, 0, 0])
+                       + observer("inside", [2.5, 1.5, 1], direction=[1, 0, 0]))
     with pytest.raises(GeometryError, match="'inside'.*inside the closed solid") as err:
         build_observers(cfg, build_scene(cfg))
     assert err.value.key == "observers[1].position"
 
 
 def test_an_eye_inside_a_luminaire_is_refused_and_near_one_warned(tmp_path):
-    phot = dataclasses.replace(isotropic(4 * math.pi * 100),
-                               opening=LuminousOpening(1.2, 0.2, 0.0, "rectangle"))
-    write_ies(phot, tmp_path / "bar.ies")
-    scene = build_scene(parse_config(f"""
-[photometry.bar]
-file = "{tmp_path / 'bar.ies'}"
-[[luminaires]]
-name = "bar"
-photometry = "bar"
-position = [0, 0, 3]
-network = "a"
-"""))
+    ies = write_with_opening(tmp_path / "bar.ies", isotropic(4 * math.pi * 100), rect(1.2, 0.2))
+    scene = scene_of(photometry("bar", file=ies), lamp("bar", [0, 0, 3], "a", "bar"))
     with pytest.raises(GeometryError, match="inside its luminous extent") as err:
         build_glare_model(scene, [Observer.looking("o", [0.2, 0, 2.9], [1, 0, 0],
                                                    key="observers[0]")])

@@ -7,7 +7,6 @@ and UGR is studies/glare/evalglare_room.py. Skipped without pyradiance (CI does 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import subprocess
@@ -21,11 +20,12 @@ L_PANEL, SIDE = 3000.0, 0.6  # cd/m², m
 
 def test_one_panel_against_evalglare(tmp_path):
     pyradiance = pytest.importorskip("pyradiance")
-    from lumijax.config import parse_config
+    from _glare import rect, scene_of, write_with_opening
+    from helpers import lamp, photometry
+
     from lumijax.design import Design
     from lumijax.glare import Observer, build_glare_model
-    from lumijax.photometry import LuminousOpening, lambertian, write_ies
-    from lumijax.scene import build_scene
+    from lumijax.photometry import lambertian
 
     root = Path(pyradiance.__file__).parent
     env = dict(os.environ, RAYPATH=f".{os.pathsep}{root / 'lib'}")
@@ -49,18 +49,9 @@ def test_one_panel_against_evalglare(tmp_path):
     eg_lum, eg_omega, eg_p, eg_edir = float(src[4]), float(src[5]), float(src[6]), float(src[10])
     eg_lveil = float(src[17])
 
-    write_ies(dataclasses.replace(lambertian(math.pi * L_PANEL * SIDE ** 2),
-                                  opening=LuminousOpening(SIDE, SIDE, 0.0, "rectangle")),
-              tmp_path / "panel.ies")
-    scene = build_scene(parse_config(f"""
-[photometry.panel]
-file = "{tmp_path / 'panel.ies'}"
-[[luminaires]]
-name = "P"
-photometry = "panel"
-position = [2, 0, 2.999]
-network = "n"
-"""))
+    ies = write_with_opening(tmp_path / "panel.ies", lambertian(math.pi * L_PANEL * SIDE ** 2),
+                             rect(SIDE))
+    scene = scene_of(photometry("panel", file=ies), lamp("P", [2, 0, 2.999], "n", "panel"))
     model = build_glare_model(scene, [Observer.looking("eye", [0, 0, 1.2], [1, 0, 0])])
     from lumijax.glare import Glare
 

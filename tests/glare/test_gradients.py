@@ -3,48 +3,27 @@ differences of the same model (tests/helpers.central_difference calls the functi
 
 from __future__ import annotations
 
-import dataclasses
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import central_difference
+from _glare import rect, scene_of, write_with_opening
+from helpers import central_difference, lamp, network, photometry
 
-from lumijax.config import parse_config
 from lumijax.design import Design
 from lumijax.glare import Observer, build_glare_model
-from lumijax.photometry import LuminousOpening, spot, write_ies
-from lumijax.scene import build_scene
+from lumijax.photometry import spot
 
 
 @pytest.fixture(scope="module")
 def model_and_design(tmp_path_factory):
-    path = tmp_path_factory.mktemp("grad") / "spot.ies"
-    write_ies(dataclasses.replace(spot(3000.0, 40.0),
-                                  opening=LuminousOpening(0.15, 0.1, 0.0, "rectangle")), path)
-    cfg = parse_config(f"""
-[photometry.spot]
-file = "{path}"
-[networks.a]
-dimmer = 0.8
-[networks.b]
-dimmer = 0.6
-[[luminaires]]
-name = "A"
-photometry = "spot"
-position = [0, 0, 4]
-network = "a"
-aim = {{ tilt = 35, pan = 185 }}
-[[luminaires]]
-name = "B"
-photometry = "spot"
-position = [2, 3, 5]
-network = "b"
-aim = {{ tilt = 25, pan = 230 }}
-""")
-    scene = build_scene(cfg)
+    path = write_with_opening(tmp_path_factory.mktemp("grad") / "spot.ies", spot(3000.0, 40.0),
+                              rect(0.15, 0.1))
+    scene = scene_of(
+        photometry("spot", file=path), network("a", 0.8), network("b", 0.6),
+        lamp("A", [0, 0, 4], "a", "spot", aim={"tilt": 35, "pan": 185}),
+        lamp("B", [2, 3, 5], "b", "spot", aim={"tilt": 25, "pan": 230}))
     observers = [Observer.looking("o", [-6, -1, 1.5], [1, 0.2, 0], fan_deg=(0.0, 30.0))]
     model = build_glare_model(scene, observers)
     model = eqx.tree_at(lambda m: (m.background, m.environment), model,

@@ -4,82 +4,20 @@ superposition of Results.at, results.json and the command line's table."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 
 import numpy as np
 import pytest
+from _glare import I0, RHO
 
 import lumijax
-from lumijax.photometry import LuminousOpening, isotropic, write_ies
-
-I0 = 1000.0  # cd, isotropic
-RHO = 0.5
 
 
-@pytest.fixture(scope="module")
-def results(tmp_path_factory):
-    d = tmp_path_factory.mktemp("glare_room")
-    write_ies(dataclasses.replace(isotropic(4 * math.pi * I0),
-                                  opening=LuminousOpening(0.2, 0.2, 0.0, "rectangle")),
-              d / "sq.ies")
-    (d / "study.toml").write_text(f"""
-[solver]
-target_patches = 600
-gather_rays = 8192
-[materials.wall]
-reflectance = {RHO}
-[photometry.sq]
-file = "sq.ies"
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [6, 4, 3]
-normals = "inward"
-material = "wall"
-[[geometry]]
-name = "column"
-kind = "box"
-min = [2, 1.5, 0]
-max = [2.5, 2.5, 2]
-material = "wall"
-[[luminaires]]
-name = "A"
-photometry = "sq"
-position = [3, 2, 2.8]
-network = "a"
-[[luminaires]]
-name = "B"
-photometry = "sq"
-position = [5.5, 2, 1.6]
-network = "b"
-[[grids]]
-name = "eye"
-kind = "points"
-points = [[0.5, 2, 1.2]]
-normals = [1, 0, 0]
-[[grids]]
-name = "floor"
-kind = "plane"
-origin = [0, 0, 0.01]
-u = [6, 0, 0]
-v = [0, 4, 0]
-nu = 6
-nv = 4
-[[observers]]
-name = "desk"
-position = [0.5, 2, 1.2]
-direction = [1, 0, 0]
-fan = {{ azimuths_deg = [0, 180] }}
-[[observers]]
-name = "driver"
-position = [0.5, 1, 1.5]
-direction = [1, 0, -0.02]
-road_grid = "floor"
-""")
-    study = lumijax.load_study(d / "study.toml")
-    return lumijax.compute(study, cache_dir=d / "cache")
+@pytest.fixture
+def results(glare_room):
+    """The lit room of tests/glare/_glare.py, computed once a session (conftest.py)."""
+    return glare_room
 
 
 def test_background_is_the_inter_reflected_light_at_the_eye(results):
