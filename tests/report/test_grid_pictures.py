@@ -8,6 +8,7 @@ import io
 import json
 import re
 
+import helpers as h
 import numpy as np
 import pytest
 
@@ -115,56 +116,17 @@ def test_plan_colours_each_point_by_its_lux():
     assert np.array_equal(np.argsort(-centres[:, 0]), np.argsort(DESKS[:, 1]))
 
 
-KINDS_STUDY = """
-[study]
-name = "kinds"
-[materials.wall]
-reflectance = 0.5
-[photometry.iso]
-kind = "isotropic"
-flux_lm = 1000
-[networks.a]
-[[geometry]]
-name = "room"
-kind = "box"
-min = [0, 0, 0]
-max = [6, 4, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "L1"
-photometry = "iso"
-network = "a"
-position = [3, 2, 2.5]
-[[grids]]
-name = "plane"
-kind = "plane"
-origin = [0, 0, 0.8]
-u = [6, 0, 0]
-v = [0, 4, 0]
-nu = 6
-nv = 4
-[[grids]]
-name = "points"
-kind = "points"
-points = [[1, 1, 0.8], [4, 3, 0.8], [2, 3.5, 0.8]]
-[[grids]]
-name = "sensor"
-kind = "sensor"
-sensor = "cylindrical"
-points = [[1, 1, 1.2], [2, 1, 1.2], [3, 1, 1.2], [4, 1, 1.2], [5, 1, 1.2]]
-[[grids]]
-name = "area"
-kind = "area"
-origin = [0, 0, 0.8]
-u = [6, 0, 0]
-v = [0, 4, 0]
-[[grids]]
-name = "surface"
-kind = "surface"
-geometry = "room"
-spacing = 1.5
-"""
+KINDS_STUDY = h.study_text(
+    h.table("study", name="kinds"), h.material("wall", 0.5), h.photometry("iso", "isotropic", 1000),
+    h.network("a"), h.box([0, 0, 0], [6, 4, 3], name="room"),
+    h.lamp("L1", [3, 2, 2.5], "a"),
+    h.plane_grid("plane", [0, 0, 0.8], [6, 0, 0], [0, 4, 0], 6, 4),
+    h.point_grid("points", [[1, 1, 0.8], [4, 3, 0.8], [2, 3.5, 0.8]]),
+    h.table("[[grids]]", name="sensor", kind="sensor", sensor="cylindrical",
+            points=[[x, 1, 1.2] for x in range(1, 6)]),
+    h.table("[[grids]]", name="area", kind="area", origin=[0, 0, 0.8], u=[6, 0, 0],
+            v=[0, 4, 0]),
+    h.table("[[grids]]", name="surface", kind="surface", geometry="room", spacing=1.5))
 
 
 def test_every_grid_kind_the_config_accepts_is_drawn(write_study):

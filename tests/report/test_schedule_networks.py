@@ -3,6 +3,7 @@ by eye from the files), and each network alone in a study whose networks light s
 
 from __future__ import annotations
 
+import helpers as h
 import numpy as np
 import pytest
 from test_report_html import _num, _rows
@@ -17,49 +18,24 @@ ITALO = "er_ITALO_1_5P5_S05_3.140-3M.IES"
 
 
 def _lum(name, photometry, network, x, **keys) -> str:
-    extra = "".join(f"{k} = {v}\n" for k, v in keys.items())
-    return (f'[[luminaires]]\nname = "{name}"\nphotometry = "{photometry}"\n'
-            f'network = "{network}"\nposition = [{x}, 1, 2.5]\n{extra}')
+    return h.lamp(name, [x, 1, 2.5], network, photometry, **keys)
 
 
 @pytest.fixture
 def real_study(shared_photometry, write_study):
-    text = f"""
-[study]
-name = "Schedule"
-[materials.wall]
-reflectance = 0.5
-[photometry.erco]
-file = "{shared_photometry / ERCO_LDT}"
-[photometry.italo]
-file = "{shared_photometry / ITALO}"
-[networks.wash]
-[networks.street]
-dimmer = 0.5
-[networks.glow]
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = [6, 3, 3]
-normals = "inward"
-material = "wall"
-""" + "".join([
+    text = h.study_text(
+        h.table("study", name="Schedule"), h.material("wall", 0.5),
+        h.photometry("erco", file=shared_photometry / ERCO_LDT),
+        h.photometry("italo", file=shared_photometry / ITALO),
+        h.network("wash"), h.network("street", 0.5), h.network("glow"),
+        h.box([0, 0, 0], [6, 3, 3]),
         _lum("W1", "erco", "wash", 1, maintenance_factor=0.8),
         _lum("W2", "erco", "wash", 2, maintenance_factor=0.8),
         _lum("W3", "erco", "wash", 3, maintenance_factor=0.9),
         _lum("S1", "italo", "street", 4),
         _lum("S2", "italo", "street", 5, multiplier=2),
-    ]) + """
-[[luminaires]]
-kind = "area"
-name = "panel"
-network = "glow"
-origin = [1, 1, 2.9]
-u = [1, 0, 0]
-v = [0, 1, 0]
-flux_lm = 3000
-maintenance_factor = 0.7
-"""
+        h.area_lamp("panel", [1, 1, 2.9], [1, 0, 0], [0, 1, 0], 3000, "glow",
+                    maintenance_factor=0.7))
     import warnings
 
     with warnings.catch_warnings():
