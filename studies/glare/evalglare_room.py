@@ -45,28 +45,22 @@ def _bin(name: str) -> str:
 
 
 def study_toml(ies: Path) -> str:
-    panels = "".join(
-        f'[[luminaires]]\nname = "P{i}"\nphotometry = "panel"\nposition = [{x}, {y}, 2.999]\n'
-        f'network = "n"\n' for i, (x, y) in enumerate(PANELS))
-    obs = "".join(
-        f'[[observers]]\nname = "{n}"\nposition = {list(e)}\ndirection = {list(d)}\n'
-        for n, (e, d) in OBSERVERS.items())
-    return f"""[study]
-name = "evalglare room"
-[solver]
-target_patches = 3000
-gather_rays = 4096
-[materials.grey]
-reflectance = {RHO}
-[photometry.panel]
-file = "{ies}"
-[[geometry]]
-kind = "box"
-min = [0, 0, 0]
-max = {list(ROOM)}
-normals = "inward"
-material = "grey"
-{panels}{obs}"""
+    """The lumijax study of the room: panels facing down 1 mm under the ceiling, one observer
+    per entry of OBSERVERS."""
+    import tomlkit
+
+    return tomlkit.dumps({
+        "study": {"name": "evalglare room"},
+        "solver": {"target_patches": 3000, "gather_rays": 4096},
+        "materials": {"grey": {"reflectance": RHO}},
+        "photometry": {"panel": {"file": str(ies)}},
+        "geometry": [{"kind": "box", "min": [0, 0, 0], "max": list(ROOM), "normals": "inward",
+                      "material": "grey"}],
+        "luminaires": [{"name": f"P{i}", "photometry": "panel", "position": [x, y, 2.999],
+                        "network": "n"} for i, (x, y) in enumerate(PANELS)],
+        "observers": [{"name": n, "position": list(e), "direction": list(d)}
+                      for n, (e, d) in OBSERVERS.items()],
+    })
 
 
 def radiance_scene() -> str:

@@ -40,6 +40,8 @@ def main(argv=None) -> None:
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
 
+    import tomlkit
+
     import lumijax
     from lumijax.photometry import LuminousOpening, spot, write_ies
 
@@ -49,40 +51,20 @@ def main(argv=None) -> None:
                                 opening=LuminousOpening(0.3, 0.3, 0.0, "rectangle"))
     write_ies(flood, work / "flood.ies")
     i_sky = E_H * SKY_H ** 2  # cd, so that E_h = I / h² straight under it
-    (work / "study.toml").write_text(f"""[study]
-name = "floodlit area"
-[solver]
-target_patches = 2000
-gather_rays = 4096
-[materials.ground]
-reflectance = {RHO}
-[photometry.sky]
-kind = "isotropic"
-flux_lm = {4 * math.pi * i_sky}
-[photometry.flood]
-file = "{work / 'flood.ies'}"
-[[geometry]]
-kind = "rectangle"
-origin = [0, -100, 0]
-u = [200, 0, 0]
-v = [0, 200, 0]
-material = "ground"
-[[luminaires]]
-name = "sky"
-photometry = "sky"
-position = {SKY.tolist()}
-network = "sky"
-[[luminaires]]
-name = "flood"
-photometry = "flood"
-position = {POLE.tolist()}
-aim_at = [0, 0, {POLE[2]}]
-network = "flood"
-[[observers]]
-name = "visitor"
-position = {EYE.tolist()}
-direction = [1, 0, 0]
-""")
+    (work / "study.toml").write_text(tomlkit.dumps({
+        "study": {"name": "floodlit area"},
+        "solver": {"target_patches": 2000, "gather_rays": 4096},
+        "materials": {"ground": {"reflectance": RHO}},
+        "photometry": {"sky": {"kind": "isotropic", "flux_lm": 4 * math.pi * i_sky},
+                       "flood": {"file": str(work / "flood.ies")}},
+        "geometry": [{"kind": "rectangle", "origin": [0, -100, 0], "u": [200, 0, 0],
+                      "v": [0, 200, 0], "material": "ground"}],
+        "luminaires": [
+            {"name": "sky", "photometry": "sky", "position": SKY.tolist(), "network": "sky"},
+            {"name": "flood", "photometry": "flood", "position": POLE.tolist(),
+             "aim_at": [0, 0, float(POLE[2])], "network": "flood"}],
+        "observers": [{"name": "visitor", "position": EYE.tolist(), "direction": [1, 0, 0]}],
+    }))
     study = lumijax.load_study(work / "study.toml")
     res = lumijax.compute(study)
     d = res.glare.to_dict()["visitor"]["directions"][0]
