@@ -48,6 +48,7 @@ import json
 import math
 import os
 import platform
+import runpy
 import shutil
 import subprocess
 import sys
@@ -176,22 +177,18 @@ def write(folder: Path, text: str) -> Path:
 # Radiance
 
 
+@functools.cache
+def _validation() -> dict:
+    """studies/validation/run_validation.py's names, loaded once by path (studies is no
+    package)."""
+    path = Path(__file__).resolve().parents[1] / "studies" / "validation" / "run_validation.py"
+    return runpy.run_path(str(path))
+
+
 def _rad_box(name: str, lo, hi, inward: bool) -> str:
-    (x0, y0, z0), (x1, y1, z1) = lo, hi
-    quads = [
-        [(x0, y0, z0), (x0, y1, z0), (x1, y1, z0), (x1, y0, z0)],
-        [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],
-        [(x0, y0, z0), (x0, y0, z1), (x0, y1, z1), (x0, y1, z0)],
-        [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
-        [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],
-        [(x0, y1, z0), (x0, y1, z1), (x1, y1, z1), (x1, y1, z0)],
-    ]
-    out = []
-    for i, q in enumerate(quads):
-        q = q[::-1] if inward else q
-        out.append(f"grey polygon {name}.{i}\n0\n0\n12 "
-                   + " ".join(f"{v:g}" for p in q for v in p) + "\n")
-    return "".join(out)
+    """A Radiance box as six grey polygons: the validation's own (run_validation._rad_box), so
+    the small cases' Radiance rooms are written as the validation's are."""
+    return _validation()["_rad_box"](name, lo, hi, inward)
 
 
 def radiance_scene(case: Case, folder: Path, r: float = 0.02) -> Path:
