@@ -17,7 +17,10 @@ adjoint with the transposed operator):
   not halve the true residual counts as a failure, and after ``restarts`` failures the
   fallback solver takes over. Success is judged on the true residual only.
 
-Tolerances are absolute max-norms per column: the caller scales every column to unit maximum.
+Tolerances are absolute max-norms per column, for columns scaled to unit maximum:
+:class:`ColumnScaled` does that scaling around a solver, so that the tangent and adjoint solves
+lineax derives (whose right-hand sides are a tangent or a cotangent, of any magnitude) meet the
+same relative tolerance as the primal one.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import lineax as lx
 
-__all__ = ["ColumnBiCGStab", "Refinement", "column_max"]
+__all__ = ["ColumnBiCGStab", "ColumnScaled", "Refinement", "column_max"]
 
 
 def column_max(x) -> jax.Array:
@@ -56,6 +59,36 @@ class _Transposable(lx.AbstractLinearSolver):
 
     def assume_full_rank(self):
         return True  # I − ρF with ρ < 1 and row sums ≤ 1 is non-singular
+
+
+class ColumnScaled(lx.AbstractLinearSolver):
+    """``solver`` on every column scaled to unit max-norm, the result scaled back (exact: the
+    system is linear). An absolute tolerance of ``solver`` becomes relative to each column.
+
+    lineax solves the adjoint ``(I − K)ᵀ λ = g`` with the solver it was given: unscaled, a
+    cotangent g far below 1 would already "meet" the absolute tolerance at λ = 0 and come back
+    as zero (a zero gradient wherever the primal right-hand side is zero, so that its scale,
+    taken from B₀, is 1)."""
+
+    solver: lx.AbstractLinearSolver
+
+    def init(self, operator, options: dict[str, Any]):
+        return self.solver.init(operator, options)
+
+    def compute(self, state, vector, options: dict[str, Any]):
+        scale = column_max(vector)
+        scale = jnp.where(scale > 0, scale, 1.0)
+        x, result, stats = self.solver.compute(state, vector / scale, options)
+        return x * scale, result, stats
+
+    def transpose(self, state, options: dict[str, Any]):
+        return self.solver.transpose(state, options)
+
+    def conj(self, state, options: dict[str, Any]):
+        return self.solver.conj(state, options)
+
+    def assume_full_rank(self):
+        return self.solver.assume_full_rank()
 
 
 class ColumnBiCGStab(_Transposable):

@@ -23,7 +23,7 @@ import lineax as lx
 
 from .._registry import Registry
 from ..config._schema import RadiosityMethodName
-from ._krylov import ColumnBiCGStab, Refinement
+from ._krylov import ColumnBiCGStab, ColumnScaled, Refinement
 from ._operator import ReflectionOperator
 
 __all__ = [
@@ -67,7 +67,8 @@ class AbstractKrylovSolver(AbstractRadiositySolver):
 
     def run(self, op, b, atol, max_products):
         system = lx.IdentityLinearOperator(op.in_structure()) - op
-        sol = lx.linear_solve(system, b, self.linear_solver(atol, max_products), throw=False)
+        sol = lx.linear_solve(system, b, ColumnScaled(self.linear_solver(atol, max_products)),
+                              throw=False)
         x = jnp.where(jnp.all(jnp.isfinite(sol.value), axis=0, keepdims=True), sol.value, 0.0)
         return x, self.products(sol.stats), sol.result, dict(sol.stats)
 

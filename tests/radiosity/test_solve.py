@@ -104,6 +104,28 @@ def test_gradients_match_finite_differences(small_cube, method):
         assert float(g_b0[k, 1]) == pytest.approx(float(fd2), rel=1e-6)
 
 
+@pytest.mark.parametrize("method", ["refined", "bicgstab", "gmres"])
+def test_adjoint_is_independent_of_the_right_hand_side_and_of_scale(small_cube, method):
+    # ∂(w·B)/∂B₀ = (I − K)⁻ᵀ w is the same at every B₀, zero included, and scales with w. The
+    # adjoint's right-hand side is w, not B₀: a tolerance fixed for a unit B₀ stopped a tiny w's
+    # adjoint at once (the aim model's first gradient, at a zero change of light, lost its
+    # inter-reflected part).
+    p, op = small_cube
+    rng = np.random.default_rng(2)
+    rho = jnp.asarray(rng.uniform(0.3, 0.8, p.n))
+    w = jnp.asarray(rng.random((p.n, 2)))
+
+    def grad_b0(b0, scale):
+        return jax.grad(lambda b: jnp.sum(scale * w * solve_radiosity(
+            op, rho, b, method=method).value))(b0)
+
+    reference = grad_b0(jnp.asarray(rng.random((p.n, 2))), 1.0)
+    assert float(jnp.max(jnp.abs(reference - w))) > 0.1  # inter-reflection is in it
+    for b0 in (jnp.zeros((p.n, 2)), jnp.asarray(rng.random((p.n, 2)))):
+        for scale in (1.0, 1e-12):
+            np.testing.assert_allclose(grad_b0(b0, scale) / scale, reference, rtol=1e-6)
+
+
 @pytest.mark.parametrize("rho", [0.5, 0.95])
 def test_solver_comparison(cube_room, rho, capsys):
     p, _, op = cube_room
