@@ -188,7 +188,8 @@ def main() -> int:
         text += ["## 2. Verdicts", ""] + part2(args.out) + [""]
     if "courtyard" not in args.skip:
         text += part3() + [""]
-    name = "RESULTS.md" if not args.skip else f"RESULTS-{'-'.join(sorted(args.skip))}.md"
+    name = "RESULTS.md" if not args.skip else ("RESULTS-radiance-full.md" if args.few_points
+                                                 else f"RESULTS-{'-'.join(sorted(args.skip))}.md")
     (HERE / name).write_text("\n".join(text))
     print("\n".join(text))
     return 0
