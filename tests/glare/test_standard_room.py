@@ -17,13 +17,13 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _glare import scene_of
+from helpers import lamp, photometry
 from scipy.interpolate import RegularGridInterpolator
 
-from lumijax.config import parse_config
 from lumijax.design import Design
 from lumijax.glare import Observer, build_glare_model
 from lumijax.photometry import read_photometry
-from lumijax.scene import build_scene
 
 H, EYE = 2.0, 1.2
 S = 0.25 * H
@@ -71,12 +71,9 @@ def test_standard_room_glare_sources_against_an_independent_sum(shared_photometr
     path = shared_photometry / name
     phot = read_photometry(path)
     assert phot.opening.shape == "rectangle"
-    lums = "".join(
-        f'[[luminaires]]\nname = "L{i}-{o}"\nphotometry = "f"\nposition = [{x}, {y}, '
-        f'{EYE + H}]\nnetwork = "{o}"\naim = {{ spin = {s} }}\n'
-        for o, s in (("lengthwise", 0), ("crosswise", 90))
-        for i, (x, y) in enumerate(_layout()))
-    scene = build_scene(parse_config(f'[photometry.f]\nfile = "{path}"\n{lums}'))
+    scene = scene_of(photometry("f", file=path), *(
+        lamp(f"L{i}-{o}", [x, y, EYE + H], o, "f", aim={"spin": s})
+        for o, s in (("lengthwise", 0), ("crosswise", 90)) for i, (x, y) in enumerate(_layout())))
     model = build_glare_model(scene, [Observer.looking("o", [0, Y / 2, EYE], [1, 0, 0])])
     model = eqx.tree_at(lambda m: m.background, model, jnp.asarray(np.full((1, 2), LB)))
     design = Design.of(scene)
