@@ -117,10 +117,16 @@ def test_demo_runs_the_bundled_study(tmp_path, capsys):
     assert "S-wall" in capsys.readouterr().out
 
 
-def test_tiny_point_grid_has_numbers_but_no_map(box_room, write_study, tmp_path):
+def test_a_one_point_grid_has_its_numbers_and_a_plan_not_a_blank_map(box_room, write_study,
+                                                                      tmp_path):
+    # A single point has no area to map: it is drawn as a plan of its point with its value
+    # (docs/report.md, "Grid pictures"), never as an empty iso-lux map.
+    import matplotlib.image as mpimg
+
     cfg = write_study(box_room + '[[grids]]\nname = "spot"\nkind = "points"\npoints = [[2, 1.5, 0.8]]\n')
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
     assert (out / "grids" / "spot.csv").exists()
-    assert not (out / "images" / "spot.png").exists()
     assert (out / "images" / "floor.png").exists()
+    picture = mpimg.imread(out / "images" / "spot.png")[..., :3]
+    assert picture.std() > 0.05  # drawn, not one colour
