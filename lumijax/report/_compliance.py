@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import html
 
+from .._study import Study
+from ..results import Results
 from ._sections import ReportSection
 
 __all__ = ["compliance_sections"]
@@ -18,9 +20,9 @@ def _f(v, unit: str = "") -> str:
     return f"{s} {unit}".strip()
 
 
-def compliance_sections(study, results, pictures: bool) -> list[ReportSection]:
+def compliance_sections(study: Study, results: Results, pictures: bool) -> list[ReportSection]:
     """One section opening the report, when the study has ``[compliance]``."""
-    comp = getattr(results, "compliance", None)
+    comp = results.compliance
     if comp is None:
         return []
     rows = []

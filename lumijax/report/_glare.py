@@ -9,6 +9,8 @@ import io
 
 import numpy as np
 
+from .._study import Study
+from ..results import Results
 from ._sections import ReportSection
 
 __all__ = ["glare_sections", "fisheye_png"]
@@ -18,9 +20,9 @@ def _f(v, spec=".1f") -> str:
     return "—" if v is None else format(v, spec)
 
 
-def glare_sections(study, results, pictures: bool) -> list[ReportSection]:
+def glare_sections(study: Study, results: Results, pictures: bool) -> list[ReportSection]:
     """One section, when the study has ``[[observers]]``."""
-    glare = getattr(results, "glare", None)
+    glare = results.glare
     if glare is None:
         return []
     data = glare.to_dict()
