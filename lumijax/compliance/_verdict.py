@@ -420,7 +420,7 @@ def compliance_model(study, results) -> ComplianceModel:
                                       ("luminance", fname), zone,
                                       "before curfew" if ob.curfew else ""))
     mf = jnp.asarray(network_maintenance(comp.maintenance, names, src))
-    glare = results.glare.model if getattr(results, "glare", None) is not None else None
+    glare = results.glare.model if results.glare is not None else None
     return ComplianceModel(grids=grids, weights=weights, mf=mf, power=power, ulr_up=ulr_up,
                            ulr_total=ulr_tot, intensity=intensity, lum_network=lum_net,
                            post_mask=post_mask, post_value=post_value, glare=glare,
@@ -434,7 +434,7 @@ def _glare_spec(results, area, kind: str) -> tuple[tuple | None, str]:
     None and why it is not computed."""
     if not area.observers:
         return None, "no 'observers' given for the area (docs/glare.md)"
-    glare = getattr(results, "glare", None)
+    glare = results.glare
     if glare is None:
         return None, "the study computed no glare ratings"
     names = glare.model.observers
@@ -454,7 +454,7 @@ def _grid_area(g, src, key) -> float | None:
     kinds, which need ``area_m2`` where an area is asked for)."""
     if g.kind not in ("plane", "area") or g.kind == "area" and g.exclude is not None:
         return None
-    b = getattr(g, "border_m", 0.0)
+    b = g.border_m if g.kind == "area" else 0.0
     cross = np.cross(g.u, g.v)
     lu, lv = np.linalg.norm(g.u), np.linalg.norm(g.v)
     return float(np.linalg.norm(cross) * max(lu - 2 * b, 0.0) * max(lv - 2 * b, 0.0)

@@ -333,7 +333,7 @@ def check_compliance(cfg, fail) -> None:
                 grid(f"{key}.{attr}", getattr(a, attr))
         for n in a.networks or ():
             network(f"{key}.networks", n)
-        observers = {o.name for o in getattr(cfg, "observers", ())}
+        observers = {o.name for o in cfg.observers}
         for o in a.observers or ():
             if o not in observers:
                 fail(f"{key}.observers", f"unknown observer {o!r}; "
