@@ -30,33 +30,28 @@ def _synthetic_scene(n_lum: int, seed: int = 0):
     """A 200 × 200 m ground with 20 columns, ``n_lum`` floodlight poles on 4 networks."""
     import dataclasses
 
+    import tomlkit
+
     from lumijax.config import parse_config
     from lumijax.photometry import LuminousOpening, flood
     from lumijax.scene import build_scene
 
     rng = np.random.default_rng(seed)
-    cols = "".join(
-        f'[[geometry]]\nkind = "box"\nmin = [{x:.2f}, {y:.2f}, 0]\nmax = [{x + 1:.2f}, '
-        f'{y + 1:.2f}, 8]\nmaterial = "stone"\n' for x, y in rng.uniform(20, 180, (20, 2)))
-    lums = "".join(
-        f'[[luminaires]]\nname = "F{i}"\nphotometry = "flood"\nposition = [{x:.2f}, '
-        f'{y:.2f}, {z:.2f}]\nnetwork = "n{i % 4}"\naim = {{ tilt = {t:.1f}, pan = {p:.1f} }}\n'
-        for i, (x, y, z, t, p) in enumerate(zip(
-            *rng.uniform(0, 200, (2, n_lum)), rng.uniform(6, 12, n_lum),
-            rng.uniform(20, 60, n_lum), rng.uniform(0, 360, n_lum), strict=True)))
-    cfg = parse_config(f"""
-[materials.stone]
-reflectance = 0.3
-[photometry.flood]
-kind = "isotropic"
-flux_lm = 1
-[[geometry]]
-kind = "rectangle"
-origin = [0, 0, 0]
-u = [200, 0, 0]
-v = [0, 200, 0]
-material = "stone"
-{cols}{lums}""")
+    cols = [{"kind": "box", "min": [round(x, 2), round(y, 2), 0],
+             "max": [round(x + 1, 2), round(y + 1, 2), 8], "material": "stone"}
+            for x, y in rng.uniform(20, 180, (20, 2))]
+    lums = [{"name": f"F{i}", "photometry": "flood", "position": [round(x, 2), round(y, 2),
+                                                                 round(z, 2)],
+             "network": f"n{i % 4}", "aim": {"tilt": round(t, 1), "pan": round(p, 1)}}
+            for i, (x, y, z, t, p) in enumerate(zip(
+                *rng.uniform(0, 200, (2, n_lum)), rng.uniform(6, 12, n_lum),
+                rng.uniform(20, 60, n_lum), rng.uniform(0, 360, n_lum), strict=True))]
+    cfg = parse_config(tomlkit.dumps({
+        "materials": {"stone": {"reflectance": 0.3}},
+        "photometry": {"flood": {"kind": "isotropic", "flux_lm": 1}},
+        "geometry": [{"kind": "rectangle", "origin": [0, 0, 0], "u": [200, 0, 0],
+                      "v": [0, 200, 0], "material": "stone"}, *cols],
+        "luminaires": lums}))
     scene = build_scene(cfg)
     phot = dataclasses.replace(flood(20_000.0, 40.0, 25.0),
                                opening=LuminousOpening(0.5, 0.4, 0.0, "rectangle"))
