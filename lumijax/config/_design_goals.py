@@ -14,7 +14,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 __all__ = ["ConstraintConfig", "DesignObjective", "ConstrainedMethod", "CRITERIA",
-           "CRITERION_SENSE"]
+           "CRITERION_SENSE", "GLARE_CRITERIA"]
 
 #: ``objective`` of a constrained design: the installed power in use (W, Σ dimmer × power_w)
 #: or the target-map misfit of the grids with a ``target_csv``.
@@ -25,17 +25,21 @@ ConstrainedMethod = Literal["slsqp", "trust-constr"]
 #: What a ``[[optimise.constraints]]`` entry may bound. Per grid: ``avg``, ``min``, ``max``
 #: (lx), ``u0`` (Emin/Eavg), ``luminance`` (ρ·Emax/π, cd/m², needs the grid's reflectance),
 #: ``misfit`` (RMS of E − target map over the map's mean); study-wide (no ``grid``): ``power``
-#: (W) and ``patch_luminance`` (cd/m², brightest radiosity patch); per grid, from the glare
-#: layer: ``ugr``, ``gr``.
+#: (W) and ``patch_luminance`` (cd/m², brightest radiosity patch); per observer (``observer``,
+#: every observer when omitted), from ``lumijax.glare``: ``ugr``, ``gr`` (dimensionless) and
+#: ``ti`` (%), each the observer's worst over its directions.
 CRITERIA = ("avg", "min", "max", "u0", "luminance", "misfit", "power", "patch_luminance",
-            "ugr", "gr")
+            "ugr", "gr", "ti")
 Criterion = Literal["avg", "min", "max", "u0", "luminance", "misfit", "power",
-                    "patch_luminance", "ugr", "gr"]
+                    "patch_luminance", "ugr", "gr", "ti"]
 #: Which bounds each criterion takes: "min" (a floor), "max" (a ceiling) or both.
 CRITERION_SENSE = {"avg": ("min", "max"), "min": ("min",), "max": ("max",), "u0": ("min",),
                    "luminance": ("max",), "misfit": ("max",), "power": ("max",),
-                   "patch_luminance": ("max",), "ugr": ("max",), "gr": ("max",)}
+                   "patch_luminance": ("max",), "ugr": ("max",), "gr": ("max",),
+                   "ti": ("max",)}
 _STUDY_WIDE = ("power", "patch_luminance")
+#: The criteria of an observer (``lumijax.glare``): no grid, an optional ``observer``.
+GLARE_CRITERIA = ("ugr", "gr", "ti")
 
 
 def _finite(v):
@@ -51,6 +55,7 @@ class ConstraintConfig(BaseModel):
 
     criterion: Criterion
     grid: Annotated[str, Field(min_length=1)] | None = None
+    observer: Annotated[str, Field(min_length=1)] | None = None
     min: Annotated[float, Field(ge=0, le=1e10)] | None = None
     max: Annotated[float, Field(gt=0, le=1e10)] | None = None
 
@@ -73,6 +78,14 @@ class ConstraintConfig(BaseModel):
                              "can meet both")
         if self.criterion == "u0" and self.min is not None and self.min > 1:
             raise ValueError(f"U0 = Emin/Eavg is at most 1, got min = {self.min:g}")
+        if self.criterion in GLARE_CRITERIA:
+            if self.grid is not None:
+                raise ValueError(f"{self.criterion!r} is an observer's rating: give "
+                                 "'observer' (or none, for every observer), not 'grid'")
+            return self
+        if self.observer is not None:
+            raise ValueError(f"'observer' is for the glare ratings (ugr, gr, ti), not "
+                             f"{self.criterion!r}")
         wide = self.criterion in _STUDY_WIDE
         if wide and self.grid is not None:
             raise ValueError(f"{self.criterion!r} is study-wide: give no 'grid'")

@@ -20,7 +20,7 @@ smoothing``, 10⁻³ by default).
 
 A new criterion (a glare rating, a compliance quantity) is one final subclass of
 :class:`AbstractConstraint` with ``value``; :class:`FunctionConstraint` wraps any JAX function
-of the :class:`DesignLight` (``lumijax.glare``'s UGR and GR, when the study computes them).
+of the :class:`DesignLight`; the glare ratings are ``_glare_constraint.GlareConstraint``.
 """
 
 from __future__ import annotations
@@ -237,8 +237,9 @@ class TotalPower(AbstractConstraint):
 
 class FunctionConstraint(AbstractConstraint):
     """Any criterion given as a JAX function of the :class:`DesignLight` (``fn(light, smooth)
-    -> scalar``): the hook for the glare ratings (UGR, GR as functions of the dimmers) and the
-    compliance quantities. ``fn`` is static: give a module-level function or an eqx.Module."""
+    -> scalar``): the hook for the compliance quantities (the glare ratings have their own
+    class, ``GlareConstraint``). ``fn`` is static: give a module-level function or an
+    eqx.Module."""
 
     label: str = eqx.field(static=True)
     key: str = eqx.field(static=True)

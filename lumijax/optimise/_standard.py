@@ -34,6 +34,7 @@ from ._constraints import (
     TotalPower,
     reference,
 )
+from ._glare_constraint import GLARE_UNITS, GlareConstraint
 from ._infeasible import explain_infeasible, find_feasible
 from ._objective import Objective
 
@@ -49,9 +50,10 @@ _CLASSES = {"avg": GridAverage, "min": GridMinimum, "max": GridMaximum, "u0": Gr
             "luminance": GridLuminance, "misfit": MapMisfit}
 _NAMES = {"avg": "Eavg", "min": "Emin", "max": "Emax", "u0": "U0", "luminance": "luminance",
           "misfit": "target-map misfit", "power": "total power",
-          "patch_luminance": "brightest patch luminance", "ugr": "UGR", "gr": "GR"}
+          "patch_luminance": "brightest patch luminance", "ugr": "UGR", "gr": "GR",
+          "ti": "TI"}
 _UNITS = {"avg": "lx", "min": "lx", "max": "lx", "u0": "", "luminance": "cd/m²", "misfit": "",
-          "power": "W", "patch_luminance": "cd/m²", "ugr": "", "gr": ""}
+          "power": "W", "patch_luminance": "cd/m²", **GLARE_UNITS}
 
 
 def price_step(criterion: str, bound: float, sense: int) -> float:
@@ -69,10 +71,12 @@ def _grids(study):
     return out
 
 
-def build_constraints(study, ocfg, goals, power: PowerModel, *, has_patches: bool):
+def build_constraints(study, ocfg, goals, power: PowerModel, *, has_patches: bool,
+                      glare=None, params=None):
     """The hard constraints of a constrained design, with ``criterion`` names (for the price
     steps); a :class:`ConfigError` names the key of a constraint the study cannot compute or
-    that contradicts another."""
+    that contradicts another. ``glare`` (the study's :class:`~lumijax.glare.GlareModel`, None
+    without observers) and ``params`` (the flat variables' layout) serve the glare ratings."""
     cfg = study.config
     grids = _grids(study)
     goal_of = {g.name: g for g in goals}
@@ -125,11 +129,10 @@ def build_constraints(study, ocfg, goals, power: PowerModel, *, has_patches: boo
         if cc.grid is not None and cc.grid not in grids:
             raise ConfigError(f"no grid named {cc.grid!r}; grids: {', '.join(grids) or 'none'}",
                               file=cfg.source, key=f"{key}.grid")
-        if cc.criterion in ("ugr", "gr"):
-            raise ConfigError(
-                f"the study computes no {cc.criterion.upper()}: the glare ratings are not "
-                "available to the optimiser in this build (lumijax.glare); the constraint "
-                "class is ready (FunctionConstraint)", file=cfg.source, key=f"{key}.criterion")
+        if cc.criterion in GLARE_UNITS:
+            made.extend((cc.criterion, c) for c in _glare_constraints(cc, key, glare, params,
+                                                                     cfg))
+            continue
         for side, sense in (("min", 1), ("max", -1)):
             bound = getattr(cc, side)
             if bound is None:
@@ -148,6 +151,49 @@ def build_constraints(study, ocfg, goals, power: PowerModel, *, has_patches: boo
                 grid_constraint(cc.criterion, cc.grid, sense, bound, f"{key}.{side}")
     _contradictions(made, cfg)
     return made
+
+
+def _glare_constraints(cc, key, glare, params, cfg):
+    """One :class:`GlareConstraint` per observer named (every observer when none is)."""
+    name = _NAMES[cc.criterion]
+    if glare is None or not glare.observers:
+        raise ConfigError(f"a {name} constraint needs an observer: the study has no "
+                          "[[observers]]", file=cfg.source, key=f"{key}.criterion")
+    if cc.observer is not None and cc.observer not in glare.observers:
+        raise ConfigError(f"no observer named {cc.observer!r}; observers: "
+                          f"{', '.join(glare.observers)}", file=cfg.source,
+                          key=f"{key}.observer")
+    if cc.criterion == "ti":
+        rated = [o for o, road in zip(glare.observers, glare.has_road, strict=True) if road]
+        if cc.observer is not None and cc.observer not in rated:
+            raise ConfigError(f"observer {cc.observer!r} has no road (road_grid or "
+                              "road_luminance_cdm2): its TI is not rated", file=cfg.source,
+                              key=f"{key}.observer")
+    else:
+        rated = list(glare.observers)
+    names = rated if cc.observer is None else [cc.observer]
+    if not names:
+        raise ConfigError("no observer has a road (road_grid or road_luminance_cdm2): TI is "
+                          "not rated", file=cfg.source, key=f"{key}.criterion")
+    view_obs = np.asarray(glare.view_observer)
+    out = []
+    for obs in names:
+        i = glare.observers.index(obs)
+        out.append(GlareConstraint(
+            label=f"observer {obs!r}: {name}", key=f"{key}.max",
+            unit=GLARE_UNITS[cc.criterion], sense=-1, bound=jnp.asarray(float(cc.max)),
+            model=glare, params=params, rating=cc.criterion, observer=i,
+            views=tuple(int(v) for v in np.flatnonzero(view_obs == i)),
+            ref=reference(cc.max)))
+    return out
+
+
+def _at_results(c, after):
+    """A glare constraint checked on the glare of the final results (their background lit at
+    the final aims, when the design re-aims: the solver's model keeps the start's)."""
+    if isinstance(c, GlareConstraint) and after.glare is not None:
+        return eqx.tree_at(lambda g: g.model, c, after.glare.model)
+    return c
 
 
 def _patch(bound, key):
@@ -245,7 +291,9 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
     lighting = results.lighting
     has_patches = lighting.coarse.patches is not None and lighting.coarse.radiosity.size > 0
     power = _power_model(setup, sc)
-    made = build_constraints(study, ocfg, goals, power, has_patches=has_patches)
+    made = build_constraints(study, ocfg, goals, power, has_patches=has_patches,
+                             glare=None if results.glare is None else results.glare.model,
+                             params=params)
     constraints = tuple(c for _, c in made)
     if ocfg.objective == "power":
         if not constraints:
@@ -305,6 +353,7 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
     table, unmet = [], []
     for (crit, c), v0, price, act in zip(made, start_values, best.prices, best.active,
                                          strict=True):
+        c = _at_results(c, after)
         v = float(c.value(light, None))
         margin = float(c.sense * (v - float(c.bound)) / c.scale)
         met = margin >= -tol
