@@ -261,6 +261,10 @@ class BuiltinPhotometry(_Model):
 
     kind: Literal["isotropic", "lambertian"]
     flux_lm: Flux
+    #: The luminous opening's diameter (m): a sphere for ``isotropic``, a downward disk for
+    #: ``lambertian`` (whose luminance is then Φ/(πA) from every direction). Glare ratings use
+    #: it; without it the source is a point (docs/glare.md's minimum size).
+    luminous_diameter_m: Positive | None = None
 
 
 class Aim(_Model):

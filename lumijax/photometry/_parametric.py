@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from ..errors import PhotometryError
 from ._distribution import CandelaDistribution
 from ._opening import LuminousOpening
 from ._photometry import Photometry, integrate_np
@@ -80,17 +81,31 @@ def _gamma_grid(knots_deg, fine_deg: float, fine_until: float) -> np.ndarray:
     return g[(g >= 0.0) & (g <= 180.0)]
 
 
-def isotropic(flux_lm: float) -> Photometry:
-    """A point source emitting ``flux_lm`` (lm) equally in all directions: ``I = Φ / 4π`` cd."""
+def _round(shape: str, diameter_m: float | None) -> LuminousOpening:
+    """A round opening of ``diameter_m`` (m), or a point when None."""
+    if diameter_m is None:
+        return LuminousOpening()
+    if not (math.isfinite(diameter_m) and diameter_m > 0):
+        raise PhotometryError(f"a luminous diameter must be a positive number of metres, got "
+                              f"{diameter_m!r}")
+    height = diameter_m if shape == "sphere" else 0.0
+    return LuminousOpening(diameter_m, diameter_m, height, shape)
+
+
+def isotropic(flux_lm: float, diameter_m: float | None = None) -> Photometry:
+    """A source emitting ``flux_lm`` (lm) equally in all directions: ``I = Φ / 4π`` cd; a point,
+    or a sphere of ``diameter_m`` (m) as its luminous opening."""
     flux_lm = _check_flux(flux_lm)
     h = np.array([0.0, 360.0])
     v = np.array([0.0, 180.0])
     cd = np.full((2, 2), flux_lm / (4.0 * math.pi))
-    return _build(flux_lm, h, v, cd, LuminousOpening(), "ISOTROPIC", f"isotropic {flux_lm:g} lm")
+    return _build(flux_lm, h, v, cd, _round("sphere", diameter_m), "ISOTROPIC",
+                  f"isotropic {flux_lm:g} lm")
 
 
-def lambertian(flux_lm: float) -> Photometry:
-    """A downward Lambertian emitter: ``I(γ) = Φ/π · cos γ`` for γ ≤ 90°, zero above.
+def lambertian(flux_lm: float, diameter_m: float | None = None) -> Photometry:
+    """A downward Lambertian emitter: ``I(γ) = Φ/π · cos γ`` for γ ≤ 90°, zero above; a point,
+    or a downward disk of ``diameter_m`` (m) as its opening (luminance Φ/(πA) every way).
 
     Sampled every 0.25° and scaled to the exact flux; the linear interpolant then differs from
     ``Φ/π · cos γ`` by less than 3·10⁻⁶ of the peak.
@@ -101,7 +116,8 @@ def lambertian(flux_lm: float) -> Photometry:
     row = flux_lm / math.pi * np.cos(np.deg2rad(v))
     row[-1] = 0.0
     cd = np.stack([row, row])
-    return _build(flux_lm, h, v, cd, LuminousOpening(), "LAMBERTIAN", f"Lambertian {flux_lm:g} lm")
+    return _build(flux_lm, h, v, cd, _round("disk", diameter_m), "LAMBERTIAN",
+                  f"Lambertian {flux_lm:g} lm")
 
 
 def _profile(theta_deg, half_deg, p):

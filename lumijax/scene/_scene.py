@@ -186,9 +186,9 @@ def build_scene(cfg: StudyConfig) -> Scene:
             if isinstance(p, FilePhotometry):
                 photometries[name] = read_photometry(p.file)
             elif p.kind == "isotropic":
-                photometries[name] = isotropic(p.flux_lm)
+                photometries[name] = isotropic(p.flux_lm, p.luminous_diameter_m)
             else:
-                photometries[name] = lambertian(p.flux_lm)
+                photometries[name] = lambertian(p.flux_lm, p.luminous_diameter_m)
         except LumijaxError as e:
             raise rekey(e, f"photometry.{name}") from None
 
