@@ -1,6 +1,6 @@
 """A glare rating as a hard constraint of the least-power design (docs/optimise.md, "Design to a
-standard"): a grey room, a ceiling square A in the desk observer's view and a square B behind
-the eye (it only brightens the surroundings), a floor average to meet.
+standard"): a grey room, a wide ceiling spot A in the desk observer's view and an isotropic
+square B behind the eye (it only brightens the surroundings), a floor average to meet.
 
 Without a ceiling on GR the cheaper A alone lights the floor; with ``GR ≤ G`` B must raise the
 environment luminance. Checked against a search over the two dimmers written here, on the
@@ -30,11 +30,11 @@ from helpers import (
 
 import lumijax
 from lumijax.errors import ConfigError
-from lumijax.photometry import LuminousOpening, isotropic, write_ies
+from lumijax.photometry import LuminousOpening, isotropic, spot, write_ies
 
 jax.config.update("jax_enable_x64", True)
 
-I0 = 1000.0  # cd, each square
+I0 = 1000.0  # cd: the square's intensity (the spot has the same flux, 4π I0 lm)
 TARGET_LX = 100.0  # the floor's Eavg floor
 POWER_A, POWER_B = 30.0, 60.0  # W at dimmer 1: A is the cheap light
 TOL = 1e-3  # [optimise] constraint_tolerance's default, relative
@@ -44,9 +44,10 @@ def _room(optimise: str = "") -> str:
     return study_text(
         table("solver", precision="float64", target_patches=60, gather_rays=64,
               spectral_samples=0, cache=False),
-        material("wall", 0.5), photometry("sq", file="sq.ies"), box([0, 0, 0], [6, 4, 3]),
+        material("wall", 0.5), photometry("sq", file="sq.ies"), photometry("wide", file="wide.ies"),
+        box([0, 0, 0], [6, 4, 3]),
         network("a", 1.0, power_w=POWER_A), network("b", 1.0, power_w=POWER_B),
-        lamp("A", [3, 2, 2.8], "a", "sq"), lamp("B", [0.2, 2, 2.8], "b", "sq"),
+        lamp("A", [3, 2, 2.8], "a", "wide"), lamp("B", [0.2, 2, 2.8], "b", "sq"),
         plane_grid("floor", [0, 0, 0.01], [6, 0, 0], [0, 4, 0], 6, 4) + f"target_lux = {TARGET_LX}\n",
         observer("desk", [0.5, 2, 1.2], direction=[1, 0, 0]),
         "[optimise]\n" + optimise)
@@ -55,9 +56,10 @@ def _room(optimise: str = "") -> str:
 @pytest.fixture(scope="module")
 def room(tmp_path_factory):
     d = tmp_path_factory.mktemp("glare_room_opt")
-    sq = isotropic(4 * math.pi * I0)
-    write_ies(dataclasses.replace(sq, opening=LuminousOpening(0.2, 0.2, 0.0, "rectangle")),
-              d / "sq.ies")
+    opening = LuminousOpening(0.2, 0.2, 0.0, "rectangle")
+    flux = 4 * math.pi * I0
+    for name, phot in (("sq", isotropic(flux)), ("wide", spot(flux, beam_deg=100))):
+        write_ies(dataclasses.replace(phot, opening=opening), d / f"{name}.ies")
     (d / "study.toml").write_text(_room('objective = "power"\nvariables = ["dimmers"]\n'))
     study = lumijax.load_study(d / "study.toml")
     return study, lumijax.compute(study)
@@ -144,3 +146,35 @@ def test_glare_constraint_names_its_key(room):
         lumijax.optimise(study, without, constraints=[{"criterion": "gr", "max": 45}])
     assert e.value.key == "optimise.constraints[0].criterion"
 
+
+
+def test_glare_constraint_differentiates_through_aims_and_levels(room):
+    """The constraint reads aims and levels from the variables: its gradient (reverse mode,
+    compiled) against central differences, the spot A tilted towards the eye so its intensity
+    and projected area toward it move with the aim."""
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    from lumijax.design import traverse
+    from lumijax.optimise._constraints import DesignLight
+    from lumijax.optimise._glare_constraint import GlareConstraint
+
+    _, results = room
+    start = results.design.replace(tilt_deg=[45.0, 10.0], pan_deg=[170.0, 0.0])
+    params = traverse(start, ("dimmers", "aims", "levels"), luminaires=(0, 1),
+                      aim_bounds_deg=[((0, 180), (-180, 180))] * 2)
+    cs = [GlareConstraint(label=r, key="k", unit="", sense=-1, bound=jnp.asarray(20.0),
+                          model=results.glare.model, params=params, rating=r, observer=0,
+                          views=(0,), ref=20.0) for r in ("ugr", "gr")]
+
+    def f(x):
+        light = DesignLight(jnp.zeros(1), None, x[:2], x)
+        return jnp.stack([c.value(light, None) for c in cs])
+
+    x0 = jnp.asarray(params.x0) * jnp.asarray([0.7, 0.9, 1, 1, 1, 1, 1.2, 1])
+    jac = np.asarray(eqx.filter_jit(jax.jacrev(f))(x0))
+    fj, h = eqx.filter_jit(f), 1e-6
+    fd = np.stack([(fj(x0.at[i].add(h)) - fj(x0.at[i].add(-h))) / (2 * h)
+                   for i in range(x0.size)], axis=1)
+    assert np.abs(fd[:, [0, 2, 4, 6]]).min() > 0.1  # A's dimmer, tilt, pan, level all count
+    np.testing.assert_allclose(jac, fd, rtol=1e-5, atol=1e-6)
