@@ -72,4 +72,4 @@ def position_index(directions, forward, up=(0.0, 0.0, 1.0)) -> np.ndarray:
     iwata = 1.0 + np.where(r > 0.6, 1.2, 0.8) * r
     p = np.where(below, iwata, p)
     p = np.where(sigma >= 90.0, MAX_POSITION_INDEX, p)
-    return np.clip(p, 1.0, MAX_POSITION_INDEX)
+    return np.asarray(np.clip(p, 1.0, MAX_POSITION_INDEX))
