@@ -138,10 +138,10 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         _summary_table(results, console)
         if results.optimisation is not None:
             _optimisation_table(results.optimisation, console)
-        if results.compliance is not None:  # the verdict per standard (docs/compliance.md)
-            console.print(results.compliance.table(), markup=False, highlight=False)
         if results.glare is not None:  # the observers' ratings (docs/glare.md)
             _glare_table(results.glare, console)
+        if results.compliance is not None:  # the verdict per standard (docs/compliance.md)
+            console.print(results.compliance.table(), markup=False, highlight=False)
         if report:
             from .report import write_report
 
