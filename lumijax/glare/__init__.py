@@ -10,6 +10,7 @@ from ._area import (
 )
 from ._glare import Glare as Glare
 from ._model import (
+    DimmerGlare as DimmerGlare,
     GlareModel as GlareModel,
     GlareRatings as GlareRatings,
     NearSourceWarning as NearSourceWarning,

@@ -142,7 +142,29 @@ class GlareModel(eqx.Module):
     def ratings(self, design) -> GlareRatings:
         """As calling the model, not compiled (for tracing inside another transformation)."""
         ugr_s, veil = self._terms(design, reduce=True)
-        alpha = jnp.asarray(design.dimmers)
+        return self._rate(ugr_s, veil, jnp.asarray(design.dimmers))
+
+    def at_aims(self, design) -> DimmerGlare:
+        """The ratings at ``design``'s aims and levels for any dimmer vector (a
+        :class:`DimmerGlare`: each network's terms summed once, at dimmer 1)."""
+        ones = design.replace(dimmers=np.ones(len(design.networks)))
+        ugr_terms, veil_terms = _contributions(self, ones)
+        onehot = jax.nn.one_hot(self._source_network(), self.background.shape[1],
+                                dtype=ugr_terms.dtype)
+        return DimmerGlare(self, ugr_terms @ onehot, veil_terms @ onehot)
+
+    def _source_network(self) -> Int[Array, " src"]:
+        """Each source's network, in ``names`` order (as ``contributions`` gives them)."""
+        parts = [g.network for g in self.sources]
+        if self.areas is not None:
+            parts.append(self.areas.network)
+        if not parts:
+            return jnp.zeros((0,), jnp.int32)
+        return jnp.concatenate(parts)[self.source_order]
+
+    def _rate(self, ugr_s, veil, alpha) -> GlareRatings:
+        """The ratings from each view's ``Σ L² ω / p²`` and veiling luminance at dimmers
+        ``alpha`` (the backgrounds scale with them)."""
         lb = self.background @ alpha.astype(self.background.dtype)
         lav = self.environment @ alpha.astype(self.environment.dtype)
         road = self.road @ alpha.astype(self.road.dtype) + self.road_fixed
@@ -199,6 +221,34 @@ class GlareModel(eqx.Module):
         order = self.source_order
         return (jnp.concatenate(ugr_parts, axis=1)[:, order],
                 jnp.concatenate(veil_parts, axis=1)[:, order])
+
+
+class DimmerGlare(eqx.Module):
+    """A :class:`GlareModel`'s ratings at fixed aims and levels, for any dimmer vector.
+
+    Every term scales with its own network's dimmer α_k — ``L² ω / p²`` with α_k², the
+    veiling luminance, L_b, L_av and the road's luminance with α_k — so the per-view sums of
+    each network at dimmer 1 are all a new dimmer vector needs: a (views × networks) product,
+    no luminaire touched (exact; ``GlareModel.at_aims`` makes it)."""
+
+    model: GlareModel
+    ugr_terms: Float[Array, "views net"]
+    veil_terms: Float[Array, "views net"]
+
+    def __call__(self, dimmers) -> GlareRatings:
+        """The ratings of every view at ``dimmers`` (one per network, 0–1)."""
+        return _dimmer_ratings(self, dimmers)
+
+    def ratings(self, dimmers) -> GlareRatings:
+        """As calling it, not compiled (for tracing inside another transformation)."""
+        alpha = jnp.asarray(dimmers, self.ugr_terms.dtype)
+        return self.model._rate(self.ugr_terms @ (alpha * alpha), self.veil_terms @ alpha,
+                                alpha)
+
+
+@eqx.filter_jit
+def _dimmer_ratings(superposed: DimmerGlare, dimmers) -> GlareRatings:
+    return superposed.ratings(dimmers)
 
 
 def worst_ratings(model: GlareModel, design) -> dict[str, Array]:

@@ -64,3 +64,24 @@ def test_worst_ratings_are_the_largest_over_the_fan(model_and_design):
     assert float(w["gr"][0]) == pytest.approx(float(jnp.max(r.gr)), rel=1e-9)
     assert float(w["ugr"][0]) == pytest.approx(float(jnp.max(r.ugr)), rel=1e-9)
     assert float(r.gr[0]) != pytest.approx(float(r.gr[1]), abs=0.1)  # the fan's views differ
+
+
+def test_a_new_dimmer_vector_superposes_without_the_luminaires(model_and_design):
+    """``at_aims`` sums each network's terms once; at any dimmers its ratings are the full
+    model's (α² for Σ L²ω/p², α for the veiling and background luminances), and so are their
+    derivatives in the dimmers."""
+    model, design = model_and_design
+    fast = model.at_aims(design)
+    rng = np.random.default_rng(3)
+    for alpha in (rng.uniform(0.1, 1.0, 2), np.array([1.0, 0.0]), np.array([0.0, 0.7])):
+        full, quick = model(design.replace(dimmers=alpha)), fast(alpha)
+        for name in ("ugr", "gr", "ugr_sum", "veiling_cdm2", "background_cdm2"):
+            np.testing.assert_allclose(getattr(quick, name), getattr(full, name), rtol=1e-10,
+                                       atol=1e-12, err_msg=name)
+
+    def gr_full(a):
+        return model.ratings(design.replace(dimmers=a)).gr[0]
+
+    a0 = jnp.asarray([0.4, 0.9])
+    np.testing.assert_allclose(jax.grad(lambda a: fast.ratings(a).gr[0])(a0),
+                               jax.grad(gr_full)(a0), rtol=1e-9)
