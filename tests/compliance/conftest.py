@@ -6,69 +6,27 @@ area by the EN 12464-1 rule, its surrounding band, cylindrical sensors above it,
 from __future__ import annotations
 
 import pytest
+from helpers import lamp, material, network, photometry, study_text, table
 
-OFFICE = """
-[study]
-name = "office"
-[solver]
-target_patches = 200
-method = "jacobi"
-spectral_samples = 0
-cache = false
-gather_rays = 256
-[materials.wall]
-reflectance = 0.5
-[photometry.down]
-kind = "lambertian"
-flux_lm = 3000
-[networks.a]
-dimmer = 1.0
-[networks.b]
-dimmer = 0.6
-[[geometry]]
-name = "room"
-kind = "box"
-min = [0, 0, 0]
-max = [6, 4, 3]
-normals = "inward"
-material = "wall"
-[[luminaires]]
-name = "A1"
-photometry = "down"
-position = [2, 2, 2.95]
-network = "a"
-spectrum = "FL2"
-[[luminaires]]
-name = "B1"
-photometry = "down"
-position = [4, 2, 2.95]
-network = "b"
-spectrum = "FL2"
-[[grids]]
-name = "desk"
-kind = "area"
-origin = [1.5, 1.0, 0.8]
-u = [3, 0, 0]
-v = [0, 2, 0]
-[[grids]]
-name = "surround"
-kind = "area"
-origin = [1.0, 0.5, 0.8]
-u = [4, 0, 0]
-v = [0, 3, 0]
-exclude = "desk"
-[[grids]]
-name = "desk_ez"
-kind = "sensor"
-sensor = "cylindrical"
-at_grid = "desk"
-offset_m = [0, 0, 0.4]
-[[grids]]
-name = "wall_s"
-kind = "surface"
-geometry = "room"
-spacing = 1.5
-[compliance.maintenance]
+OFFICE = study_text(
+    table("study", name="office"),
+    table("solver", target_patches=200, method="jacobi", spectral_samples=0, cache=False,
+          gather_rays=256),
+    material("wall", 0.5),
+    photometry("down", "lambertian", 3000),
+    network("a", 1.0), network("b", 0.6),
+    table("[[geometry]]", name="room", kind="box", min=[0, 0, 0], max=[6, 4, 3],
+          normals="inward", material="wall"),
+    lamp("A1", [2, 2, 2.95], "a", "down", spectrum="FL2"),
+    lamp("B1", [4, 2, 2.95], "b", "down", spectrum="FL2"),
+    table("[[grids]]", name="desk", kind="area", origin=[1.5, 1.0, 0.8], u=[3, 0, 0],
+          v=[0, 2, 0]),
+    table("[[grids]]", name="surround", kind="area", origin=[1.0, 0.5, 0.8], u=[4, 0, 0],
+          v=[0, 3, 0], exclude="desk"),
+    table("[[grids]]", name="desk_ez", kind="sensor", sensor="cylindrical", at_grid="desk",
+          offset_m=[0, 0, 0.4]),
+    table("[[grids]]", name="wall_s", kind="surface", geometry="room", spacing=1.5),
+) + """[compliance.maintenance]
 luminaire_type = "D"
 environment = "clean"
 cleaning_interval_years = 1

@@ -7,32 +7,20 @@ import math
 
 import numpy as np
 import pytest
+from helpers import material, study_text, table
 
 from lumijax.config import parse_config
 from lumijax.errors import ConfigError
 from lumijax.scene import build_scene
 from lumijax.scene._standard_grids import area_counts, en12464_spacing
 
-ROOM = """
-[materials.w]
-reflectance = 0.4
-[materials.dark]
-reflectance = 0.1
-[[geometry]]
-name = "room"
-kind = "box"
-min = [0, 0, 0]
-max = [6, 4, 3]
-normals = "inward"
-material = "w"
-[[geometry]]
-name = "panel"
-kind = "rectangle"
-origin = [1, 3.9, 0.5]
-u = [2, 0, 0]
-v = [0, 0, 1.5]
-material = "dark"
-"""
+ROOM = study_text(
+    material("w", 0.4), material("dark", 0.1),
+    table("[[geometry]]", name="room", kind="box", min=[0, 0, 0], max=[6, 4, 3],
+          normals="inward", material="w"),
+    table("[[geometry]]", name="panel", kind="rectangle", origin=[1, 3.9, 0.5], u=[2, 0, 0],
+          v=[0, 0, 1.5], material="dark"),
+)
 
 
 def _scene(grids: str):
