@@ -79,12 +79,38 @@ def _optimisation_table(opt, console) -> None:
     console.print(table)
     console.print("dimmers: " + ", ".join(f"{n} {v:.3f}" for n, v in opt.dimmers.items()))
     if opt.constrained is not None:  # a constrained design: the verdict, prices, conflict
-        from .optimise import print_constrained
-
-        print_constrained(opt.constrained, console)
+        _constrained_table(opt.constrained, console)
         return
     for line in opt.unmet:
         console.print(f"[yellow]not met:[/yellow] {line}")
+
+
+def _constrained_table(record: dict, console) -> None:
+    """The constrained design's verdict, constraints, prices and any conflict (``lumijax
+    run``); an infeasible design is an answer, printed plainly (the run exits 0)."""
+    from rich.table import Table
+
+    unit = f" {record['unit']}" if record["unit"] else ""
+    console.print(f"verdict: {record['verdict']} — {record['objective']} "
+                  f"{record['objective_start']:.4g}{unit} → {record['objective_end']:.4g}{unit} "
+                  f"({record['method']}, {record['iterations']} steps; starts: "
+                  f"{record['starts']['agreed']} of {record['starts']['count']} agreed)")
+    table = Table(title="constraints (exact, at the final design)", title_justify="left")
+    for col in ("constraint", "bound", "start", "achieved", "met", "active"):
+        table.add_column(col, justify="left" if col == "constraint" else "right")
+    for r in record["constraints"]:
+        table.add_row(r["label"], f"{r['relation']} {r['bound']:.4g} {r['unit']}".rstrip(),
+                      f"{r['start']:.4g}", f"{r['achieved']:.4g}", "✓" if r["met"] else "✗",
+                      "yes" if r["active"] else "")
+    console.print(table)
+    for line in record["prices"]:
+        console.print(f"price: {line}")
+    inf = record.get("infeasibility")
+    if inf is not None:
+        console.print("[yellow]infeasible[/yellow]: no setting of the chosen variables meets "
+                      "these constraints together:")
+        for line in inf["sentences"]:
+            console.print(f"  {line}")
 
 
 def _glare_table(glare, console) -> None:

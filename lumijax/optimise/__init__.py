@@ -10,9 +10,8 @@ from ._sensitivity import (
     what_moves_the_needle as what_moves_the_needle,
 )
 from ._solvers import SOLVERS as SOLVERS, minimise as minimise
-from ._standard import print_constrained as print_constrained
 from ._targets import GridGoal as GridGoal, grid_goals as grid_goals
 
 __all__ = ["optimise", "Optimisation", "Objective", "DimmerLight", "AimLight", "minimise",
-           "SOLVERS", "GridGoal", "grid_goals", "print_constrained",
+           "SOLVERS", "GridGoal", "grid_goals",
            "sensitivity", "Sensitivity", "what_moves_the_needle", "calibrate", "Calibration"]

@@ -417,31 +417,3 @@ def _price_sentence(c, crit, step, cost, unit) -> str:
     cost_u = f" {unit}" if unit else ""
     return (f"{verb} {name} from {b:{fmt}}{u} to {b + step:{fmt}}{u} costs "
             f"{cost:.3g}{cost_u} (first order, from the Lagrange multiplier)")
-
-
-def print_constrained(record: dict, console) -> None:
-    """The constrained design's verdict, constraints, prices and any conflict (``lumijax
-    run``); an infeasible design is an answer, printed plainly (the run exits 0)."""
-    from rich.table import Table
-
-    unit = f" {record['unit']}" if record["unit"] else ""
-    console.print(f"verdict: {record['verdict']} — {record['objective']} "
-                  f"{record['objective_start']:.4g}{unit} → {record['objective_end']:.4g}{unit} "
-                  f"({record['method']}, {record['iterations']} steps; starts: "
-                  f"{record['starts']['agreed']} of {record['starts']['count']} agreed)")
-    table = Table(title="constraints (exact, at the final design)", title_justify="left")
-    for col in ("constraint", "bound", "start", "achieved", "met", "active"):
-        table.add_column(col, justify="left" if col == "constraint" else "right")
-    for r in record["constraints"]:
-        table.add_row(r["label"], f"{r['relation']} {r['bound']:.4g} {r['unit']}".rstrip(),
-                      f"{r['start']:.4g}", f"{r['achieved']:.4g}", "✓" if r["met"] else "✗",
-                      "yes" if r["active"] else "")
-    console.print(table)
-    for line in record["prices"]:
-        console.print(f"price: {line}")
-    inf = record.get("infeasibility")
-    if inf is not None:
-        console.print("[yellow]infeasible[/yellow]: no setting of the chosen variables meets "
-                      "these constraints together:")
-        for line in inf["sentences"]:
-            console.print(f"  {line}")
