@@ -56,32 +56,34 @@ class NearSourceWarning(LumijaxWarning):
     ``A_p / d²`` and position index (taken at its centre) are rough there."""
 
 
-class _Sources(eqx.Module):
+class _Seen(eqx.Module):
+    """What every kind of source shares: its network, and where it stands in each view
+    (position index p, cos σ from the line of sight, angle θ in degrees)."""
+
+    network: Int[Array, " m"]
+    position: Float[Array, "views m"]
+    cos_sigma: Float[Array, "views m"]
+    angle_deg: Float[Array, "views m"]
+
+
+class _Sources(_Seen):
     """One photometry's luminaires as the observers see them (see the module docstring)."""
 
     distribution: object
     opening: object = eqx.field(static=True)
     index: Int[Array, " m"]
-    network: Int[Array, " m"]
     frame: Float[Array, "m 3 3"]
     scale: Float[Array, " m"]
     towards_eye: Float[Array, "obs m 3"]
     inv_d2: Float[Array, "obs m"]
     visible: Float[Array, "obs m"]
-    position: Float[Array, "views m"]
-    cos_sigma: Float[Array, "views m"]
-    angle_deg: Float[Array, "views m"]
 
 
-class _AreaSources(eqx.Module):
+class _AreaSources(_Seen):
     """Lambertian area sources: fixed luminance (cd/m² at dimmer 1) and solid angle."""
 
-    network: Int[Array, " m"]
     luminance: Float[Array, " m"]
     solid_angle: Float[Array, "obs m"]
-    position: Float[Array, "views m"]
-    cos_sigma: Float[Array, "views m"]
-    angle_deg: Float[Array, "views m"]
 
 
 class GlareRatings(NamedTuple):
