@@ -172,14 +172,31 @@ class GroupConfig(_Model):
 
 
 class MaterialConfig(_Model):
-    """``[materials.NAME]``: a diffuse reflectance, grey, spectral (CSV or named) or sRGB."""
+    """``[materials.NAME]``: a diffuse reflectance (grey, spectral or sRGB), and optionally a
+    specular reflectance with its Ward roughness and a transmittance (clear or diffuse).
+
+    The energy balance ρ_d + ρ_s + τ ≤ 1 is checked here for grey values and per wavelength
+    (spectra) when the scene is built (``lumijax.scene``), naming ``materials.NAME``.
+    """
 
     reflectance: Finite | str | Path | None = Field(
         None, description="grey value, CSV path (resolved to a Path) or dataset name"
     )
     srgb: Vec3 | None = None
+    specular: Finite | str | Path | None = Field(
+        None, description="specular reflectance: grey value, CSV path or dataset name"
+    )
+    roughness: Positive | None = Field(
+        None, description="Ward α (isotropic, rms slope); 0.05 when 'specular' is set"
+    )
+    transmittance: Finite | str | Path | None = Field(
+        None, description="transmittance (normal incidence for clear glass): grey, CSV or name"
+    )
+    kind: Literal["clear", "diffuse"] | None = Field(
+        None, description="how 'transmittance' passes light: clear (specular) or diffuse"
+    )
 
-    @field_validator("reflectance")
+    @field_validator("reflectance", "specular", "transmittance")
     @classmethod
     def _file(cls, v, info: ValidationInfo):
         return _resolve(v, info) if isinstance(v, str) and _looks_like_file(v) else v
@@ -192,6 +209,23 @@ class MaterialConfig(_Model):
             raise ValueError(
                 f"reflectance must be in [0, 1): a diffuse surface cannot reflect more light "
                 f"than it receives (got {self.reflectance})"
+            )
+        for key in ("specular", "transmittance"):
+            v = getattr(self, key)
+            if isinstance(v, float) and not 0.0 <= v < 1.0:
+                raise ValueError(f"{key} must be in [0, 1) (got {v})")
+        if self.roughness is not None and self.specular is None:
+            raise ValueError("'roughness' is the spread of a specular reflection: it needs "
+                             "'specular'")
+        if (self.transmittance is None) != (self.kind is None):
+            raise ValueError("'transmittance' needs 'kind' (\"clear\" or \"diffuse\"), and "
+                             "'kind' needs 'transmittance'")
+        grey = [v for v in (self.reflectance, self.specular, self.transmittance)
+                if isinstance(v, float)]
+        if len(grey) >= 2 and sum(grey) > 1.0:
+            raise ValueError(
+                f"reflectance + specular + transmittance = {sum(grey):g} > 1: a surface cannot "
+                "return more light than it receives"
             )
         if self.srgb is not None and not all(0.0 <= c <= 1.0 for c in self.srgb):
             raise ValueError("srgb components must be in [0, 1]")

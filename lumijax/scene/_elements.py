@@ -23,11 +23,47 @@ __all__ = ["Material", "Luminaire", "AreaSource", "Network", "Grid"]
 
 @dataclass(frozen=True)
 class Material:
-    """A diffuse material: its spectral reflectance and its luminous (V(λ)-weighted) value."""
+    """A surface material: diffuse reflectance, and optionally specular reflection and transmission.
+
+    Every spectrum is a dimensionless fraction per wavelength (kind ``"reflectance"``), and each
+    luminous scalar is its V(λ)-weighted mean under an equal-energy illuminant (photopic, like
+    ``luminous_reflectance``). Per wavelength ρ_d + ρ_s + τ ≤ 1 (checked when built).
+
+    ``reflectance`` / ``luminous_reflectance`` (``rho``): the Lambertian part, what the
+    radiosity carries. ``specular`` / ``rho_s``: the specular reflectance of the Ward model
+    (paper eq. 5) with isotropic ``roughness`` α (rms facet slope, dimensionless, > 0; 0.05 by
+    default), for the view pass; the radiosity leaves it out (docs/materials.md).
+    ``transmittance`` / ``tau``: the fraction passed through the surface. ``kind`` says how:
+    ``"diffuse"`` (opal, frosted: leaves the far side Lambertian, both sides coupled in the
+    radiosity) or ``"clear"`` (thin glass: straight through; ``transmittance`` is the value at
+    normal incidence, and the angle dependence is the thin pane's Fresnel loss with n = 1.52,
+    ``lumijax.direct.glass_transmittance``). ``None`` without transmission.
+    """
 
     name: str
     reflectance: Spectrum
     luminous_reflectance: float
+    specular: Spectrum | None = None
+    roughness: float = 0.05
+    transmittance: Spectrum | None = None
+    kind: str | None = None
+    rho_s: float = 0.0
+    tau: float = 0.0
+
+    @property
+    def rho(self) -> float:
+        """The luminous diffuse reflectance (same as ``luminous_reflectance``)."""
+        return self.luminous_reflectance
+
+    @property
+    def clear(self) -> bool:
+        """Whether light passes straight through (clear glass)."""
+        return self.kind == "clear" and self.tau > 0.0
+
+    @property
+    def diffuse_transmitting(self) -> bool:
+        """Whether light passes through and leaves the far side Lambertian (opal, frosted)."""
+        return self.kind == "diffuse" and self.tau > 0.0
 
 
 @dataclass(frozen=True)

@@ -260,6 +260,16 @@ def _material(name: str, m, src) -> Material:
     from ..spectral import Spectrum, luminous_reflectance
 
     key = f"materials.{name}"
+
+    def read(value, what: str):
+        if value is None:
+            return None
+        if isinstance(value, float | int):
+            return Spectrum.grey(float(value), name=f"{name} {what}")
+        if isinstance(value, Path):
+            return Spectrum.from_csv(value, "reflectance", name=f"{name} {what}")
+        return Spectrum.from_name(value, "reflectance")
+
     try:
         if m.srgb is not None:
             refl = Spectrum.from_srgb(m.srgb, name=name)
@@ -269,13 +279,40 @@ def _material(name: str, m, src) -> Material:
             refl = Spectrum.from_csv(m.reflectance, "reflectance", name=name)
         else:
             refl = Spectrum.from_name(m.reflectance, "reflectance")
-        rho = luminous_reflectance(refl, Spectrum.from_name("E", "emission"))
+        spec = read(m.specular, "specular")
+        trans = read(m.transmittance, "transmittance")
+        white = Spectrum.from_name("E", "emission")
+        rho = luminous_reflectance(refl, white)
+        rho_s = 0.0 if spec is None else luminous_reflectance(spec, white)
+        tau = 0.0 if trans is None else luminous_reflectance(trans, white)
     except LumijaxError as e:
         raise ConfigError(e.message, file=src if e.file is None else e.file, line=e.line,
                           key=key) from None
     if not rho < 1.0:
         raise ConfigError(f"reflectance must be < 1 (got {rho:.4f})", file=src, key=key)
-    return Material(name, refl, float(rho))
+    if spec is not None or trans is not None:
+        _check_energy(refl, spec, trans, src, key)
+    return Material(
+        name, refl, float(rho), specular=spec,
+        roughness=0.05 if m.roughness is None else float(m.roughness),
+        transmittance=trans, kind=m.kind, rho_s=float(rho_s), tau=float(tau),
+    )
+
+
+def _check_energy(refl, spec, trans, src, key: str) -> None:
+    """ρ_d + ρ_s + τ ≤ 1 at every wavelength of 360–830 nm and every sample of the three."""
+    parts = [s for s in (refl, spec, trans) if s is not None]
+    wl = np.unique(np.concatenate([np.arange(360.0, 831.0)]
+                                  + [s.wavelengths_nm for s in parts]))
+    wl = wl[(wl >= 360.0) & (wl <= 830.0)]
+    total = sum(s.at(wl) for s in parts)
+    i = int(np.argmax(total))
+    # 1e-9: grey inputs like 0.1 + 0.2 + 0.7 sum to 1 + 1 ulp, which is still "≤ 1"
+    if total[i] > 1.0 + 1e-9:
+        raise ConfigError(
+            f"reflectance + specular + transmittance = {total[i]:.4f} > 1 at {wl[i]:g} nm: a "
+            "surface cannot return more light than it receives (expected a sum ≤ 1 at every "
+            "wavelength)", file=src, key=key)
 
 
 def _spectrum(value, src, key):
