@@ -3,12 +3,18 @@
 Data flow: config → scene → mesh and partition → transport operator → solve per network →
 superposition → objectives and optimisation → reports. See ``docs/conventions.md`` for units,
 frames and aim angles.
+
+The names below are imported on first use (PEP 562): ``import lumijax`` — and so
+``lumijax.cli``, whose dimmer-only rerun never needs JAX (docs/results.md, "Dimmer-only
+reruns") — costs milliseconds, not the second and a half of importing JAX.
 """
 
-from ._study import Study as Study, compute as compute, load_study as load_study
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from ._version import __version__ as __version__
-from .compliance import Compliance as Compliance
-from .design import Design as Design
 from .errors import (
     ConfigError as ConfigError,
     GeometryError as GeometryError,
@@ -19,7 +25,38 @@ from .errors import (
     SolveError as SolveError,
     SpectrumError as SpectrumError,
 )
-from .glare import Glare as Glare, Observer as Observer
-from .optimise import Optimisation as Optimisation, optimise as optimise
-from .report import write_results as write_results
-from .results import GridResult as GridResult, Results as Results
+
+if TYPE_CHECKING:
+    from ._study import Study as Study, compute as compute, load_study as load_study
+    from .compliance import Compliance as Compliance
+    from .design import Design as Design
+    from .glare import Glare as Glare, Observer as Observer
+    from .optimise import Optimisation as Optimisation, optimise as optimise
+    from .report import write_results as write_results
+    from .results import GridResult as GridResult, Results as Results
+
+#: public name → the module that defines it (relative to the package)
+_LAZY = {
+    "Study": "._study", "compute": "._study", "load_study": "._study",
+    "Compliance": ".compliance", "Design": ".design", "Glare": ".glare", "Observer": ".glare",
+    "Optimisation": ".optimise", "optimise": ".optimise", "write_results": ".report",
+    "GridResult": ".results", "Results": ".results",
+}
+
+__all__ = [
+    "__version__", "ConfigError", "GeometryError", "LumijaxError", "LumijaxWarning",
+    "OutputError", "PhotometryError", "SolveError", "SpectrumError", *_LAZY,
+]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'lumijax' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value  # once: later look-ups are plain attribute reads
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

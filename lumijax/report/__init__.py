@@ -5,28 +5,27 @@ polar candela plots (``_polar``), each grid's picture (``_gridplots``), the lumi
 (``_html``, with other layers' ``ReportSection``) and its PDF (``_pdf``).
 Rendering imports pyvista lazily; see ``docs/report.md``."""
 
-from ._camera import Camera, cameras_of, overview_camera
-from ._falsecolour import DEFAULT_CMAP, falsecolour_map, lux_to_rgb, make_view, nice_levels
-from ._gridplots import GridPicture, grid_picture, picture_kind
-from ._html import grid_criteria, render_report, report_context, section_builders, write_report
-from ._networks import NetworkPage, network_pages
-from ._pdf import write_pdf
-from ._polar import beam_angle_deg, polar_plot
-from ._schedule import Schedule, ScheduleRow, luminaire_schedule
-from ._sections import ReportSection
-from ._surfaces import SurfaceLight, surface_light
-from ._tonemap import auto_ev100, ev100, exposure_scale, tone_map
-from ._views import (
-    auto_exposure,
-    beam_outline,
-    fitting_colour,
-    render_falsecolour_view,
-    render_realistic,
-    view_colours,
-    write_png,
-)
-from ._vtk import write_patches_vtp
-from ._write import ResultSet, write_results
+import importlib
+
+# Imported on first use (PEP 562): most of the report needs JAX (the study, the design), and
+# the command line's dimmer-only rerun writes results.json through ResultSet without it.
+_LAZY = {
+    "Camera": "._camera", "cameras_of": "._camera", "overview_camera": "._camera",
+    "DEFAULT_CMAP": "._falsecolour", "falsecolour_map": "._falsecolour",
+    "lux_to_rgb": "._falsecolour", "make_view": "._falsecolour", "nice_levels": "._falsecolour",
+    "GridPicture": "._gridplots", "grid_picture": "._gridplots", "picture_kind": "._gridplots",
+    "grid_criteria": "._html", "render_report": "._html", "report_context": "._html",
+    "section_builders": "._html", "write_report": "._html", "NetworkPage": "._networks",
+    "network_pages": "._networks", "write_pdf": "._pdf", "beam_angle_deg": "._polar",
+    "polar_plot": "._polar", "Schedule": "._schedule", "ScheduleRow": "._schedule",
+    "luminaire_schedule": "._schedule", "ReportSection": "._sections",
+    "SurfaceLight": "._surfaces", "surface_light": "._surfaces", "auto_ev100": "._tonemap",
+    "ev100": "._tonemap", "exposure_scale": "._tonemap", "tone_map": "._tonemap",
+    "auto_exposure": "._views", "beam_outline": "._views", "fitting_colour": "._views",
+    "render_falsecolour_view": "._views", "render_realistic": "._views", "view_colours": "._views",
+    "write_png": "._views", "write_patches_vtp": "._vtk", "ResultSet": "._write",
+    "write_results": "._write",
+}
 
 __all__ = [
     "falsecolour_map", "lux_to_rgb", "nice_levels", "make_view", "DEFAULT_CMAP",
@@ -41,3 +40,16 @@ __all__ = [
     "luminaire_schedule", "Schedule", "ScheduleRow", "network_pages", "NetworkPage",
     "write_results", "write_patches_vtp", "ResultSet",
 ]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'lumijax.report' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
