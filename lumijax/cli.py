@@ -366,6 +366,35 @@ def _check(config: Path, *, as_json: bool, console) -> int:
     return 0
 
 
+def _ugr_table(path: Path, *, spacing_h: float, lamp_flux_lm, as_json: bool, console) -> int:
+    """Print a luminaire file's CIE 190 UGR table: rooms down, reflectances across, viewed
+    crosswise then endwise (lumijax.glare.ugr_table; docs/glare.md)."""
+    import json
+
+    from rich.table import Table
+
+    from .glare import ugr_table
+    from .photometry import read_photometry
+
+    t = ugr_table(read_photometry(path), spacing_h=spacing_h, lamp_flux_lm=lamp_flux_lm)
+    if as_json:
+        print(json.dumps(t.to_dict(), indent=2))
+        return 0
+    for o, orientation in enumerate(t.orientations):
+        table = Table(title=f"{t.name}: UGR (CIE 190) viewed {orientation}, S = "
+                      f"{t.spacing_h:g} H, lamp flux {t.lamp_flux_lm:g} lm", title_justify="left")
+        table.add_column("X", justify="right")
+        table.add_column("Y", justify="right")
+        for c, w, f in t.reflectances:
+            table.add_column(f"{100 * c:.0f}/{100 * w:.0f}/{100 * f:.0f}", justify="right")
+        for r, (x, y) in enumerate(t.rooms):
+            table.add_row(f"{x:g}H", f"{y:g}H", *(f"{v:.1f}" for v in t.ugr[r, o]))
+        console.print(table)
+    console.print("X across the line of sight, Y along it; reflectances ceiling/walls/floor; "
+                  "crosswise: the luminous length across the line of sight")
+    return 0
+
+
 def default_study_path() -> Path:
     """The bundled default study (a small courtyard facade)."""
     return Path(__file__).parent / "data" / "studies" / "default" / "study.toml"
@@ -411,6 +440,15 @@ def _parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate a config and print what it holds")
     check.add_argument("config", type=Path)
     check.add_argument("--json", action="store_true", help="print a JSON summary")
+    ugr = sub.add_parser("ugr-table", help="a luminaire file's CIE 190 UGR table (as data "
+                         "sheets print it)")
+    ugr.add_argument("file", type=Path, help="an IES or EULUMDAT file with luminous dimensions")
+    ugr.add_argument("--spacing", type=float, default=0.25,
+                     help="luminaire spacing S / H (default 0.25, as catalogues; CIE 190's "
+                     "standard condition is 1)")
+    ugr.add_argument("--lamp-flux", type=float, default=None,
+                     help="lamp flux (lm) the table is for (default: the file's own)")
+    ugr.add_argument("--json", action="store_true", help="print the table as JSON")
     demo = sub.add_parser("demo", help="run the bundled default study")
     demo.add_argument("--out", type=Path, default=Path("lumijax-demo"))
     demo.add_argument("--no-report", action="store_true", help="do not write report.html")
@@ -446,6 +484,9 @@ def main(argv: list[str] | None = None) -> int:
                         images=not (args.no_images or args.quick), shadows=True,
                         console=console, cache_dir=args.out / ".lumijax-cache",
                         report=not (args.no_report or args.quick), quick=args.quick)
+        if args.command == "ugr-table":
+            return _ugr_table(args.file, spacing_h=args.spacing, lamp_flux_lm=args.lamp_flux,
+                              as_json=args.json, console=console)
         if args.command == "view":
             return _view(args.config, web=args.web, host=args.host, port=args.port,
                          camera=args.camera, console=console)

@@ -30,3 +30,11 @@ from ._ratings import (
     ugr as ugr,
     veiling_luminance as veiling_luminance,
 )
+from ._table import (
+    STANDARD_REFLECTANCES as STANDARD_REFLECTANCES,
+    STANDARD_ROOMS as STANDARD_ROOMS,
+    STANDARD_SPACING_H as STANDARD_SPACING_H,
+    UGRTable as UGRTable,
+    room_transfer_factors as room_transfer_factors,
+    ugr_table as ugr_table,
+)
