@@ -305,7 +305,8 @@ def _covers(apex, quads, node, tris, tol):
 
 
 def _shade_leaves(area, pts, nrm, r, i0, j0, nu, nv, caster, timing, hidden):
-    """Four stratified shadow rays per finest piece; add F_piece × blocked fraction."""
+    """Four stratified shadow rays per finest piece; add F_piece × blocked fraction (a ray
+    through clear glass counts as blocked by 1 − τ(θ))."""
     if not len(r):
         return 0
     quads = _corners(area, i0, i0 + 1, j0, j0 + 1, nu, nv)
@@ -315,7 +316,7 @@ def _shade_leaves(area, pts, nrm, r, i0, j0, nu, nv, caster, timing, hidden):
         + offs[None, :, 1, None] * dv[:, None]
     t0 = time.perf_counter()
     k = len(offs)
-    blocked = caster.occluded(np.repeat(pts[r], k, axis=0), samples.reshape(-1, 3))
+    blocked = 1.0 - caster.transmission(np.repeat(pts[r], k, axis=0), samples.reshape(-1, 3))
     frac = blocked.reshape(-1, k).mean(axis=1)
     t1 = time.perf_counter()
     timing["shadow_rays"] += t1 - t0

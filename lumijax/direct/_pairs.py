@@ -364,8 +364,15 @@ def _chunk(batch, dist, s_idx, r_idx, points, normals, rot_j, caster, all_rays, 
     if caster is not None:
         test = np.arange(n) if all_rays else np.flatnonzero(e > 0)
         if len(test):
-            blocked = caster.occluded(batch.position[s_idx[test]], points[r_idx[test]])
-            keep[test[blocked]] = False
+            # 0 blocked, 1 clear, τ(θ) through clear glass (docs/materials.md)
+            through = caster.transmission(batch.position[s_idx[test]], points[r_idx[test]])
+            keep[test[through <= 0]] = False
+            glazed = test[(through > 0) & (through < 1)]
+            if len(glazed):
+                factor = through[(through > 0) & (through < 1)]
+                gain, e = gain.copy(), e.copy()
+                gain[glazed] *= factor
+                e[glazed] *= factor
             stats.shadow_rays += len(test)
         timing["shadow_rays"] += time.perf_counter() - t1
     if not all_rays:

@@ -205,14 +205,14 @@ def _contour_batched(q, n, tri) -> np.ndarray:
 
 
 def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
-    """Fraction of unblocked rays between quadrature points of pairs (N, Q, 3) × (N, Q, 3)."""
+    """Mean light carried by rays between quadrature points of pairs (N, Q, 3) × (N, Q, 3): the
+    unblocked fraction, with a ray through clear glass counting τ(θ) (docs/materials.md)."""
     n, q = qi.shape[:2]
     k = np.arange(rays)
     a, b = k % q, (k * 7 + 3 * (k // q) + 1) % q  # a fixed scramble pairing points of i and j
     o = qi[:, a].reshape(-1, 3)
     t = qj[:, b].reshape(-1, 3)
-    blocked = caster.occluded(o, t).reshape(n, rays)
-    return 1.0 - blocked.mean(axis=1)
+    return caster.transmission(o, t).reshape(n, rays).mean(axis=1)
 
 
 def _near_pairs(p: Patches, i, j, s: FormFactorSettings, caster, counters) -> np.ndarray:
@@ -263,10 +263,10 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
                       d2[fi, fj], ai[fi], aj[fj], spread[ia[fi]], spread[ib[fj]])
     if caster is not None and len(fi):
         t0 = time.perf_counter()
-        hit = caster.occluded(ci[fi], cj[fj])
+        carried = caster.transmission(ci[fi], cj[fj])  # 0, 1, or τ(θ) through clear glass
         counters["ray_time"] += time.perf_counter() - t0
         counters["rays"] += len(fi)
-        g[fi[hit], fj[hit]] = 0.0
+        g[fi, fj] *= carried
     # Near pairs: any vertex of each in front of the other's plane (partly-facing neighbours
     # count; the contour integral clips exactly).
     ni_i, nj_j = np.nonzero(near & upper)

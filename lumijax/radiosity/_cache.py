@@ -154,8 +154,11 @@ def cached_operator(
     settings = settings or FormFactorSettings()
     ps = partition_settings or PartitionSettings()
     occ = None if occluders is None else np.asarray(occluders, np.float64)
+    # clear glass changes what a ray carries (lumijax.scene.GlazedCaster): its τ is in the key
+    glazing = {} if caster is None or caster.glazing_key is None else {
+        "glazing": caster.glazing_key}
     key = operator_key(patches, occluders=occ, partition=ps, form_factors=settings,
-                       dtype=np.dtype(dtype))
+                       dtype=np.dtype(dtype), **glazing)
     path = cache_path(cache_dir, key)
     remove_orphans(cache_dir)  # temporaries of writers killed mid-write (the operator's size)
     try:

@@ -20,5 +20,12 @@ from ._geometry import (
     box_triangles as box_triangles,
     rectangle_triangles as rectangle_triangles,
 )
+from ._glass import (
+    GLASS_INDEX as GLASS_INDEX,
+    MAX_CLEAR_TRANSMITTANCE as MAX_CLEAR_TRANSMITTANCE,
+    GlazedCaster as GlazedCaster,
+    glass_transmittance as glass_transmittance,
+    internal_transmissivity as internal_transmissivity,
+)
 from ._raycast import RayCaster as RayCaster
 from ._scene import Scene as Scene, build_scene as build_scene

@@ -94,6 +94,19 @@ class RayCaster:
             out[s : s + _CHUNK] = (np.asarray(hit) >= 0) & ok
         return out
 
+    #: What, besides the triangles, changes what a ray carries (None: every triangle is opaque;
+    #: a glazed caster's digest of its panes' transmittances). Part of an operator's cache key.
+    glazing_key: str | None = None
+
+    def transmission(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        targets: Float[np.ndarray, "rays 3"],
+    ) -> Float[np.ndarray, " rays"]:
+        """Fraction of light carried along each open segment: 0 blocked, 1 clear (every triangle
+        is opaque here; ``lumijax.scene.GlazedCaster`` lets clear glass through)."""
+        return np.where(self.occluded(origins, targets), 0.0, 1.0)
+
     def first_hit(
         self,
         origins: Float[np.ndarray, "rays 3"],

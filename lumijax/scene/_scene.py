@@ -48,7 +48,14 @@ class Scene:
 
     @cached_property
     def raycaster(self) -> RayCaster:
-        """Embree scene over all triangles (built on first use)."""
+        """Embree scene over all triangles (built on first use); clear glass passes light with
+        its τ(θ) (``GlazedCaster``) when the scene has any."""
+        tau = np.array([m.tau if m.clear else 0.0 for m in self.materials])
+        per_triangle = tau[self.triangles.material] if len(tau) else np.zeros(0)
+        if np.any(per_triangle > 0):
+            from ._glass import GlazedCaster
+
+            return GlazedCaster(self.triangles.vertices, per_triangle)
         return RayCaster(self.triangles.vertices)
 
     @property
@@ -292,6 +299,16 @@ def _material(name: str, m, src) -> Material:
         raise ConfigError(f"reflectance must be < 1 (got {rho:.4f})", file=src, key=key)
     if spec is not None or trans is not None:
         _check_energy(refl, spec, trans, src, key)
+    if m.kind == "clear":
+        from ._glass import MAX_CLEAR_TRANSMITTANCE
+
+        top = float(np.max(trans.values))
+        if top > MAX_CLEAR_TRANSMITTANCE:
+            raise ConfigError(
+                f"clear glass transmits at most {MAX_CLEAR_TRANSMITTANCE:.4f} at normal "
+                f"incidence (index 1.52, two surfaces, no absorption); got {top:.4f}: expected "
+                "the pane's normal transmittance τ(0), or kind = \"diffuse\"",
+                file=src, key=f"{key}.transmittance")
     return Material(
         name, refl, float(rho), specular=spec,
         roughness=0.05 if m.roughness is None else float(m.roughness),
