@@ -15,6 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lumijax"
 LAYERS = [
     ("errors", "_version"),
     ("_atomic", "_registry", "_jit_cache"),
+    ("parallel",),
     ("config",),
     ("spectral",),
     ("photometry",),
@@ -26,6 +27,7 @@ LAYERS = [
     ("design",),
     ("results",),
     ("glare",),
+    ("render",),
     ("compliance",),
     ("_study",),
     ("optimise",),

@@ -18,5 +18,4 @@ from ._optics import MIRROR_ROUGHNESS as MIRROR_ROUGHNESS, Optics as Optics, opt
 from ._tracer import (
     Tracer as Tracer,
     TraceStats as TraceStats,
-    pane_transmission as pane_transmission,
 )

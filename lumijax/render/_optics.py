@@ -33,12 +33,13 @@ def _channels(spectrum) -> np.ndarray:
 class Optics(eqx.Module):
     """Per material (the scene's material order): ``specular`` (M, 3) XYZ channel factors of
     the specular reflectance, ``roughness`` (M,) Ward α, ``transmittance`` (M, 3) at normal
-    incidence, ``clear`` (M,) straight-through transmission, ``diffuse`` (M,) Lambertian
+    incidence and ``tau`` (M,) its luminous value, ``clear`` (M,) straight-through transmission, ``diffuse`` (M,) Lambertian
     transmission (the far side's radiosity is what is seen)."""
 
     specular: Float[np.ndarray, "m 3"]
     roughness: Float[np.ndarray, " m"]
     transmittance: Float[np.ndarray, "m 3"]
+    tau: Float[np.ndarray, " m"]
     clear: Bool[np.ndarray, " m"]
     diffuse: Bool[np.ndarray, " m"]
 
@@ -46,7 +47,8 @@ class Optics(eqx.Module):
     def lambertian(cls, n: int) -> Optics:
         """``n`` opaque diffuse materials (what every material was before issue 18)."""
         z = np.zeros((n, 3))
-        return cls(z, np.full(n, 0.05), z.copy(), np.zeros(n, bool), np.zeros(n, bool))
+        return cls(z, np.full(n, 0.05), z.copy(), np.zeros(n), np.zeros(n, bool),
+                   np.zeros(n, bool))
 
     @property
     def two_sided(self) -> Bool[np.ndarray, " m"]:
@@ -70,6 +72,7 @@ def optics_of(materials) -> Optics:
             out.roughness[i] = m.roughness
         if m.transmittance is not None and m.tau > 0:
             out.transmittance[i] = _channels(m.transmittance)
+            out.tau[i] = m.tau
             out.clear[i] = m.clear
             out.diffuse[i] = m.diffuse_transmitting
     return out

@@ -11,7 +11,8 @@ the radiance along the mirror direction (α < ``MIRROR_ROUGHNESS``) or the mean 
 ``lobe_rays`` directions drawn from the isotropic Ward lobe (Walter 2005's sampling of the
 half vector: tan²θ_h = −α² ln u, with the weight ρ_s (o·h) cos³θ_h √(cos θ_o / cos θ_i) that
 the Ward BRDF over that density gives). Clear glass passes the ray on unchanged, weighted by
-τ(θ) (the thin pane's Fresnel loss, n = 1.52); a diffusely transmitting surface seen from the
+τ(θ) (the thin absorbing pane of n = 1.52 the direct light uses,
+:func:`lumijax.scene.glass_transmittance`); a diffusely transmitting surface seen from the
 side its radiosity does not face shows its other side's radiosity (the coincident
 back-to-back triangle of a two-sided surface), and only that: it scatters what passes.
 
@@ -28,32 +29,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from jaxtyping import Float, Int
 
+from ..scene import glass_transmittance
 from ._cameras import AbstractCamera
 from ._emitters import Emitters
 from ._image import LuminanceImage
 from ._optics import MIRROR_ROUGHNESS, Optics
 
-__all__ = ["Tracer", "TraceStats", "pane_transmission"]
+__all__ = ["Tracer", "TraceStats"]
 
 #: Back faces a ray may pass through before it is taken as lost (the doll's house walls).
 MAX_PASSES = 8
-
-#: Refractive index of the clear glass of ``kind = "clear"``.
-GLASS_INDEX = 1.52
-
-
-def pane_transmission(cos_theta, n: float = GLASS_INDEX):
-    """τ(θ)/τ(0) of a thin non-absorbing pane (both faces, all inter-reflections), per
-    polarisation ``(1 − R)/(1 + R)`` with R the Fresnel reflectance of one face, averaged."""
-    c = np.clip(np.abs(np.asarray(cos_theta, np.float64)), 1e-9, 1.0)
-    s2 = (1.0 - c * c) / (n * n)
-    ct = np.sqrt(1.0 - s2)
-    rs = ((c - n * ct) / (c + n * ct)) ** 2
-    rp = ((ct - n * c) / (ct + n * c)) ** 2
-    t = 0.5 * ((1 - rs) / (1 + rs) + (1 - rp) / (1 + rp))
-    r0 = ((n - 1.0) / (n + 1.0)) ** 2
-    return t / ((1 - r0) / (1 + r0))
-
 
 @dataclass
 class TraceStats:
@@ -124,6 +109,21 @@ class Tracer:
         self._rng = np.random.default_rng(self.seed)
         # a source coincident with a surface (a downlight's face on the ceiling) wins
         self._tie = 1e-4 * self._surfaces.extent
+
+    @classmethod
+    def for_scene(cls, scene, surface, **options) -> Tracer:
+        """The tracer of a lit ``surface`` (the report's ``SurfaceLight``: ``points``,
+        ``faces``, per-vertex front ``normals``, per-network vertex ``xyz`` and the scene
+        ``material`` of each triangle) in ``scene`` (its materials' optics and its light
+        sources, at the scene's aims and levels). ``options``: ``depth``, ``lobe_rays``, …."""
+        from ._emitters import emitters_of
+        from ._optics import optics_of
+
+        faces = np.asarray(surface.faces)
+        return cls(points=surface.points, faces=faces,
+                   normals=np.asarray(surface.normals)[faces[:, 0]],
+                   vertex_xyz=surface.xyz, material=surface.material,
+                   optics=optics_of(scene.materials), emitters=emitters_of(scene), **options)
 
     # -- one batch of rays ------------------------------------------------------------------
 
@@ -227,7 +227,11 @@ class Tracer:
             glass = np.flatnonzero(opt.clear[m])
             if len(glass):
                 cos = np.abs(np.einsum("ij,ij->i", d[glass], nrm[glass]))
-                w = weight[glass] * opt.transmittance[m[glass]] * pane_transmission(cos)[:, None]
+                mg = m[glass]
+                # the direct light's pane (lumijax.scene.glass_transmittance), its colour
+                # from the transmittance's channels
+                angular = glass_transmittance(cos, opt.tau[mg]) / opt.tau[mg]
+                w = weight[glass] * opt.transmittance[mg] * angular[:, None]
                 kids.append((p[glass], d[glass], w, pix[glass]))
             if not kids:
                 break

@@ -1,5 +1,6 @@
 """The report's glare section: per observer the worst UGR, GR and TI, the luminaires that
-contribute most, and a fisheye map of the sources its eye rates (docs/glare.md)."""
+contribute most, and per observer a traced fisheye of the whole scene's luminance as its eye
+sees it, the ratings written on it (docs/glare.md, docs/render.md)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,10 @@ from .._study import Study
 from ..results import Results
 from ._sections import ReportSection
 
-__all__ = ["glare_sections", "fisheye_png"]
+__all__ = ["glare_sections", "fisheye_png", "observer_fisheye", "traced_fisheye_png"]
+
+#: Pixels across an observer's traced fisheye in the report.
+FISHEYE_PX = 360
 
 
 def _f(v, spec=".1f") -> str:
@@ -42,16 +46,30 @@ def glare_sections(study: Study, results: Results, pictures: bool) -> list[Repor
     body = f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
     if pictures:
         figs = []
+        surface = None
+        if results.lighting is not None:
+            from ._surfaces import surface_light
+
+            surface = surface_light(results)
         for i, name in enumerate(data):
             views = glare.views_of(i)
             w = data[name]["worst"]
             j = (w["gr"] or w["ugr"] or {"direction": 0})["direction"]
-            png = fisheye_png(glare, int(views[j]), title=_title(name, data[name]["directions"][j]))
+            title = _title(name, data[name]["directions"][j])
+            if surface is not None:  # the whole scene, traced (lumijax.render)
+                image, ugr, _ = observer_fisheye(results, i, view=int(views[j]),
+                                                 surface=surface)
+                png = traced_fisheye_png(image, glare, int(views[j]), title=title, ugr=ugr)
+                what = ("the whole scene's luminance its eye sees in its worst direction "
+                        "(traced: reflections of the sources included), angular fisheye "
+                        "(centre: the line of sight), the sources it rates ringed")
+            else:
+                png = fisheye_png(glare, int(views[j]), title=title)
+                what = ("the sources its eye rates in its worst direction, angular fisheye "
+                        "(centre: the line of sight)")
             uri = "data:image/png;base64," + base64.b64encode(png).decode("ascii")
-            figs.append(f'<figure><img src="{uri}" alt="sources seen by {html.escape(name)}">'
-                        f"<figcaption>{html.escape(name)}: the sources its eye rates in its "
-                        "worst direction, angular fisheye (centre: the line of sight)"
-                        "</figcaption></figure>")
+            figs.append(f'<figure><img src="{uri}" alt="what {html.escape(name)} sees">'
+                        f"<figcaption>{html.escape(name)}: {what}</figcaption></figure>")
         body += "".join(figs)
     return [ReportSection(
         id="glare", title="Glare",
@@ -102,6 +120,71 @@ def fisheye_png(glare, view: int, *, title: str = "", size_in: float = 4.5) -> b
     ax.set_xticks([])
     ax.set_yticks([])
     ax.set_title(title, fontsize=8)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def observer_fisheye(results: Results, observer: int, *, view: int | None = None,
+                     surface=None, size: int = FISHEYE_PX):
+    """``(LuminanceImage, UGR, L_b)``: the angular 180° fisheye (:class:`lumijax.render.
+    Fisheye`) an observer's eye sees along view ``view`` (its first line of sight by default),
+    traced through the whole lit scene — surfaces at their radiosity, luminaires at their
+    luminance, their specular reflections and what clear glass passes — and the image's own
+    UGR and background (cd/m²), evalglare's way (:meth:`LuminanceImage.ugr`)."""
+    from ..design import Design
+    from ..render import Fisheye, Tracer
+    from ._surfaces import surface_light
+
+    glare, lighting = results.glare, results.lighting
+    if glare is None or lighting is None:
+        raise ValueError("observer_fisheye needs results with glare and a lighting solution")
+    scene = lighting.scene
+    if results.design.same_study(Design.of(scene)):  # the luminaires as designed
+        scene = scene.with_design(results.design)
+    if view is None:
+        view = int(glare.views_of(observer)[0])
+    eye = np.asarray(glare.observers[observer].eye, np.float64)
+    f = np.asarray(glare.model.view_direction[view], np.float64)
+    surface = surface if surface is not None else surface_light(results)
+    cam = Fisheye(position=tuple(eye), target=tuple(eye + f), up=(0.0, 0.0, 1.0),
+                  size=(size, size), projection="equidistant", fov_deg=180.0)
+    image = Tracer.for_scene(scene, surface).render(cam, results.design.dimmers)
+    ugr, lb = image.ugr()
+    return image, ugr, lb
+
+
+def traced_fisheye_png(image, glare, view: int, *, title: str = "", ugr: float | None = None,
+                       size_in: float = 4.5) -> bytes:
+    """A traced fisheye as a log-luminance false-colour picture (cd/m²), the sources the glare
+    model rates ringed at their directions, the ratings in the title and the image's own UGR
+    beneath."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    lum = image.luminance
+    inside = image.camera.solid_angles() > 0
+    pos = lum[inside & (lum > 0)]
+    lo = max(float(np.percentile(pos, 1)), 1e-3) if pos.size else 1e-3
+    hi = max(float(lum.max()), lo * 10)
+    shown = np.where(inside, np.log10(np.clip(lum, lo, hi)), np.nan)
+    fig, ax = plt.subplots(figsize=(size_in, size_in), dpi=100)
+    im = ax.imshow(shown, cmap="inferno", vmin=np.log10(lo), vmax=np.log10(hi))
+    fig.colorbar(im, ax=ax, shrink=0.7, label="log10 luminance (cd/m²)")
+    src = [s for s in glare.seen_sources(view) if np.linalg.norm(s["direction"]) > 0]
+    if src:
+        row, col, ok = image.camera.pixel(np.array([s["direction"] for s in src]))
+        ax.scatter(col[ok], row[ok], s=60, facecolors="none", edgecolors="#4fc3f7",
+                   linewidths=0.8)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_title(title, fontsize=8)
+    if ugr is not None and np.isfinite(ugr):
+        ax.set_xlabel(f"UGR of this image (sources > 5 × its mean luminance): {ugr:.1f}",
+                      fontsize=7)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", bbox_inches="tight")
     plt.close(fig)

@@ -61,6 +61,7 @@ class SurfaceLight:
     area: Float[np.ndarray, " tri"]
     average: object  # scipy.sparse (V, T): vertex value = average @ patch value
     illuminance: Float[np.ndarray, "net vertices"] | None = None
+    material: Int[np.ndarray, " tri"] | None = None  # scene material of each triangle
 
     def xyz_at(self, dimmers) -> Float[np.ndarray, "vertices 3"]:
         """Vertex XYZ (Y in cd/m²) at a dimmer vector, by superposition."""
@@ -142,7 +143,7 @@ def surface_light(results, *, illuminance: bool = False, target_patches: int = 3
         ill = np.stack([avg @ np.asarray(row, np.float64) for row in e])
     return SurfaceLight(points=points, faces=faces, normals=normals, networks=tuple(scene.network_names),
                         xyz=xyz, patch_luminance=b / np.pi, area=np.asarray(p.area),
-                        average=avg, illuminance=ill)
+                        average=avg, illuminance=ill, material=np.asarray(p.material))
 
 
 def _direct_patches(scene, target_patches: int, *, shadows: bool = True):

@@ -21,7 +21,7 @@ from ._tonemap import auto_ev100, tone_map
 
 __all__ = ["render_realistic", "render_falsecolour_view", "png_bytes", "write_png", "in_view",
            "auto_exposure",
-           "view_colours", "fitting_colour", "fitting_rgb", "beam_outline"]
+           "view_colours", "fitting_colour", "fitting_rgb", "beam_outline", "traced_xyz"]
 
 BACKGROUND = "#15181e"  # a night sky: dark, slightly blue, so black shadows still read as shadow
 
@@ -231,10 +231,18 @@ def render_realistic(surface, cam: Camera, dimmers, scene=None, *, ev: float | N
 
     Exposure: ``ev``, else the camera's ``exposure_ev``, else metered (:func:`auto_exposure`).
     ``scene`` adds the luminaires (and, with ``markers``, their aim lines and beam cones).
+    Where a material of ``scene`` is specular or clear, the view is traced instead
+    (:func:`traced_xyz`, docs/render.md): reflections and glass shown, the luminaires at their
+    own luminance, markers not drawn.
     """
     if ev is None:
         ev = cam.exposure_ev if cam.exposure_ev is not None else auto_exposure(
             surface, dimmers, cam)
+    if scene is not None and surface.material is not None and _traced(scene):
+        # specular or clear surfaces: the ray-traced second pass (lumijax.render)
+        xyz = traced_xyz(surface, scene, cam, dimmers)
+        rgb = tone_map(xyz.reshape(-1, 3), ev, tone or cam.tone).reshape(xyz.shape)
+        return np.round(np.clip(rgb, 0, 1) * 255.0).astype(np.uint8), float(ev)
     mesh = surface.polydata()
     mesh.point_data["rgb"] = view_colours(surface, dimmers, ev, tone or cam.tone)
     pl = _plotter(cam.size)
@@ -248,6 +256,32 @@ def render_realistic(surface, cam: Camera, dimmers, scene=None, *, ev: float | N
         return _shot(pl), float(ev)
     finally:
         pl.close()
+
+
+def _traced(scene) -> bool:
+    """Whether a scene's views need the traced pass: some material reflects specularly or
+    passes light straight through (the raster draws diffuse radiosity exactly, and faster)."""
+    from ..render import optics_of
+
+    return optics_of(scene.materials).any_specular
+
+
+@functools.lru_cache(maxsize=4)
+def _tracer(surface, scene):
+    from ..render import Tracer
+
+    return Tracer.for_scene(scene, surface)
+
+
+def traced_xyz(surface, scene, cam: Camera, dimmers) -> np.ndarray:
+    """CIE XYZ (H, W, 3; Y in cd/m²) of a perspective camera's view traced through ``scene``
+    (:class:`lumijax.render.Tracer`, depth 2): specular reflections, clear glass and the
+    luminaires at their luminance included."""
+    from ..render import Perspective
+
+    view = Perspective(position=tuple(cam.position), target=tuple(cam.target),
+                       up=tuple(cam.up), size=tuple(cam.size), fov_deg=float(cam.fov_deg))
+    return _tracer(surface, scene).render(view, dimmers).xyz
 
 
 def _range(values: np.ndarray, scale: str) -> tuple[float, float]:

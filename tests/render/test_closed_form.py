@@ -146,20 +146,28 @@ def test_luminaire_seen_directly_at_its_luminance():
     assert tracer.render(top, [1.0]).luminance.max() == 0.0
 
 
-def _thin_pane(cos_theta, n=1.52):
-    """τ(θ)/τ(0) of a lossless thin pane, written here from Fresnel's equations (Snell's law,
-    r_s and r_p amplitudes) and the incoherent sum of a slab's inter-reflections."""
-    theta = np.arccos(cos_theta)
+def _pane(cos_theta, tau0, n=1.52):
+    """τ(θ) of a thin absorbing pane of normal transmittance τ0, written here from Fresnel's
+    equations (Snell's law, the r_s and r_p amplitudes), Beer's law along the refracted path
+    and the incoherent sum of the slab's inter-reflections; the internal transmissivity found
+    by bisection on τ(0) = τ0."""
+    theta = np.arccos(np.clip(cos_theta, -1, 1))
     theta_t = np.arcsin(np.sin(theta) / n)
-    r_s = -np.sin(theta - theta_t) / np.sin(theta + theta_t)
-    r_p = np.tan(theta - theta_t) / np.tan(theta + theta_t)
+    safe = np.where(theta > 1e-9, theta, 1e-9)
+    st = np.where(theta > 1e-9, theta_t, 1e-9 / n)
+    r_s = (np.sin(safe - st) / np.sin(safe + st)) ** 2
+    r_p = (np.tan(safe - st) / np.tan(safe + st)) ** 2
 
-    def slab(r):  # Σ (1−R)² R^{2k}
-        return (1 - r) ** 2 / (1 - r * r)
+    def slab(r, t):  # Σ (1−r)² t (r t)^{2k}
+        return (1 - r) ** 2 * t / (1 - (r * t) ** 2)
 
-    t = 0.5 * (slab(r_s ** 2) + slab(r_p ** 2))
     r0 = ((n - 1) / (n + 1)) ** 2
-    return t / slab(r0)
+    lo, hi = 0.0, 1.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if slab(r0, mid) < tau0 else (lo, mid)
+    t = lo ** (1.0 / np.cos(theta_t))
+    return 0.5 * (slab(r_s, t) + slab(r_p, t))
 
 
 def test_room_through_a_window_is_the_room_times_tau():
@@ -178,6 +186,7 @@ def test_room_through_a_window_is_the_room_times_tau():
     vx = _grey(np.where(np.arange(len(pts)) < len(wall[0]), field(pts), 0.0)[None])
     optics = Optics.lambertian(2)
     optics.transmittance[1] = tau
+    optics.tau[1] = tau
     optics.clear[1] = True
     direct = Tracer(*wall, _normals(*wall), vx[:, : len(wall[0])],
                     np.zeros(len(wall[1]), int), Optics.lambertian(1))
@@ -187,7 +196,8 @@ def test_room_through_a_window_is_the_room_times_tau():
     a = direct.render(cam, [1.0]).luminance
     b = through.render(cam, [1.0]).luminance
     d, _ = cam.rays()
-    factor = tau * _thin_pane(np.abs(d @ pane_normal)).reshape(a.shape)
+    factor = _pane(np.abs(d @ pane_normal), tau).reshape(a.shape)
+    assert _pane(1.0, tau) == pytest.approx(tau, rel=1e-12)
     assert np.all(a > 0)
     # (hit points are Embree's float32: the two paths meet the wall a few µm apart)
     assert np.allclose(b, a * factor, rtol=1e-5)
