@@ -17,10 +17,11 @@ from .config import StudyConfig, load_config
 from .design import Design
 from .lighting import LightingSolution, SolverSettings, solve_lighting
 from .lighting._solution import Level, float64_scope
+from .parallel import executor_scope
 from .results import GridResult, Results
 from .scene import Scene, build_scene
 
-__all__ = ["Study", "load_study", "compute", "solver_settings", "check_memory"]
+__all__ = ["Study", "load_study", "study_of", "compute", "solver_settings", "check_memory"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,10 +73,16 @@ def load_study(path: str | Path) -> Study:
     """
     t0 = time.perf_counter()
     cfg = load_config(path)
-    t1 = time.perf_counter()
+    return study_of(cfg, config_s=time.perf_counter() - t0)
+
+
+def study_of(cfg: StudyConfig, *, config_s: float = 0.0) -> Study:
+    """The study of an already loaded and validated config (``config_s``: the seconds that
+    loading took, for ``timing_s``); raises as :func:`load_study` does for the scene."""
+    t = time.perf_counter()
     scene = build_scene(cfg)
-    t2 = time.perf_counter()
-    return Study(cfg, scene, load_s=t2 - t0, config_s=t1 - t0, scene_s=t2 - t1)
+    scene_s = time.perf_counter() - t
+    return Study(cfg, scene, load_s=config_s + scene_s, config_s=config_s, scene_s=scene_s)
 
 
 def solver_settings(study: Study, **overrides) -> SolverSettings:
@@ -87,6 +94,7 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
         max_iterations=c.max_iterations, gather_rays=c.gather_rays, precision=c.precision,
         spectral_samples=c.spectral_samples, operator_patches=c.operator_patches,
         refine=c.refine, refine_threshold=c.refine_threshold,
+        transport=c.transport, rays_per_patch=c.rays_per_patch,
     )
     values.update(overrides)
     return SolverSettings(**values)
@@ -119,6 +127,11 @@ def check_memory(study: Study):
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     patches, fine = _two_levels(patches, tri, size, settings.operator_patches)
     itemsize = 8 if settings.precision == "float64" else 4
+    if settings.transport == "sampled":
+        from .radiosity._estimate import bound_sampled_memory
+
+        return bound_sampled_memory(patches.n, settings.rays_per_patch, itemsize=itemsize,
+                                    file=study.config.source)
     estimate, _ = bound_operator_memory(
         patches, max_block=settings.max_block, itemsize=itemsize, caster=study.scene.raycaster,
         triangles=len(tri), two_levels=fine is not None, file=study.config.source,
@@ -137,6 +150,7 @@ def compute(
     progress: Callable[[str, int, int], None] | None = None,
     cache_dir: str | Path | None = None,
     design: Design | None = None,
+    scheduler=None,
 ) -> Results:
     """Light the study: direct and inter-reflected illuminance on every grid, per network.
 
@@ -155,6 +169,11 @@ def compute(
     cache_dir
         Where to keep the transport operator between runs; default ``.lumijax-cache`` beside
         the config (when ``[solver] cache`` is true).
+    scheduler
+        Run the parallel stages (direct light, the transport build, the final gather) on a
+        Dask cluster: its address (``tcp://HOST:8786``), a ``distributed.Client`` or a
+        :class:`~lumijax.parallel.Executor` (docs/parallel.md). None: in this process.
+        Results equal the local run's.
     """
     recompute = partial(_at_design, study, shadows=shadows, indirect=indirect,
                         cache_dir=cache_dir)
@@ -177,7 +196,7 @@ def compute(
     elif cache_dir is None and study.config.source is not None:
         cache_dir = study.config.source.parent / ".lumijax-cache"
     # a float64 study is solved in JAX's x64 mode, not by flipping it for the whole process
-    with float64_scope(settings.precision == "float64"):
+    with float64_scope(settings.precision == "float64"), executor_scope(scheduler):
         if shadows:
             lighting = solve_lighting(sc, points, normals, settings, progress=progress,
                                       cache_dir=cache_dir)
@@ -243,7 +262,17 @@ def _glare(study: Study, lighting, grids, design, *, shadows: bool, rays: int):
         study.scene, observers, lighting if shadows else None, rays=rays,
         grid_lux={n: g.by_network_lux for n, g in grids.items()}, shadows=shadows,
         source=study.config.source)
-    return Glare(model, design, observers)
+    surfaces, radiosity = None, None
+    names = [g.name for g in study.config.geometry]
+    if shadows and lighting is not None and lighting.coarse.patches is not None and any(names):
+        from .glare import build_seen_surfaces
+
+        limits = [(oc.name, s, v) for oc in study.config.observers
+                  for s, v in (oc.max_luminance_cdm2 or {}).items()]
+        surfaces = build_seen_surfaces(study.scene, observers, lighting.coarse.patches, names,
+                                       limits=limits)
+        radiosity = np.asarray(lighting.coarse.radiosity, np.float64)
+    return Glare(model, design, observers, surfaces=surfaces, radiosity=radiosity)
 
 
 def _sensor_results(study: Study, lighting, grids: dict, shadows: bool) -> dict:

@@ -45,15 +45,16 @@ def _progress_bar(console, description: str):
     return progress, update
 
 
-def _summary_table(results, console) -> None:
+def _summary_table(study: str, grids: dict, console) -> None:
+    """Each grid's statistics (``grids``: name → GridResult) and whether it meets its target."""
     from rich.table import Table
 
     from .results import CRITERIA_SLACK
 
-    table = Table(title=f"{results.study}: illuminance per grid", title_justify="left")
+    table = Table(title=f"{study}: illuminance per grid", title_justify="left")
     for col in ("grid", "points", "Eavg (lx)", "Emin (lx)", "Emax (lx)", "U0", "target (lx)"):
         table.add_column(col, justify="left" if col == "grid" else "right")
-    for name, g in results.grids.items():
+    for name, g in grids.items():
         s = g.stats
         target = "" if g.target_lux is None else (
             f"{g.target_lux:g} {'✓' if s['avg'] >= g.target_lux * (1 - CRITERIA_SLACK) else '✗'}")
@@ -132,25 +133,44 @@ def _glare_table(glare, console) -> None:
 
 def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
          cache_dir: Path | None = None, optimise: bool = True, report: bool = True,
-         quick: bool = False, timings: bool = False) -> int:
+         quick: bool = False, timings: bool = False, scheduler: str | None = None) -> int:
     startup = _process_age()  # Python's start and the imports of lumijax, before this call
-    from ._study import compute, load_study
-    from .report import write_results
+    if scheduler is not None:  # an address that does not answer is refused now, in seconds
+        from .parallel import connect
+
+        scheduler = connect(scheduler)
+    t0 = time.perf_counter()  # before the imports: a rerun's budget is end to end
+    from .config import load_config
     from .report._write import ResultSet
 
-    t0 = time.perf_counter()
     marks: dict[str, float] = {}  # wall time (s) of this run's steps (--timings)
     # The folder is locked from the start (a second run into it stops at once, not after its
     # compute), and every file, the report included, is staged and swapped in as one set.
     with ResultSet(out) as rs:
-        study = load_study(config)
+        t = time.perf_counter()
+        cfg = load_config(config)
         if quick:
-            study = _quick(study)
+            cfg = _quick_config(cfg)
+        config_s = time.perf_counter() - t
+        kept = _kept_solution(cfg, cache_dir, quick=quick, optimise=optimise, shadows=shadows)
+        if kept is not None and _rerun(kept, cfg, rs, out, config_s=config_s, startup=startup,
+                                       t0=t0, timings=timings, console=console):
+            return 0
+        _compilation_cache()
+        from ._study import compute, study_of
+        from .report import write_results
+
+        study = study_of(cfg, config_s=config_s)
         progress, update = _progress_bar(console, "lighting")
         t = time.perf_counter()
         with progress:
-            results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir)
+            results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir,
+                              scheduler=scheduler)
         marks["compute"] = time.perf_counter() - t
+        if kept is not None:  # the next run that changes only dimmers reads this back
+            from ._stored import store_solution
+
+            store_solution(results, *kept)
         stages = dict(results.timing_s)  # the compute's (a fit that re-aims computes again)
         if optimise and study.config.optimise is not None:
             from .optimise import optimise as fit
@@ -159,9 +179,9 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
             results = fit(study, results, cache_dir=cache_dir).results
             marks["optimise"] = time.perf_counter() - t
         t = time.perf_counter()
-        paths = write_results(results, rs, images=images, timings=marks)
+        paths = write_results(results, rs, images=images, timings=marks, patches=not quick)
         marks["write"] = time.perf_counter() - t
-        _summary_table(results, console)
+        _summary_table(results.study, results.grids, console)
         if results.optimisation is not None:
             _optimisation_table(results.optimisation, console)
         if results.glare is not None:  # the observers' ratings (docs/glare.md)
@@ -187,6 +207,55 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
     if timings:
         _timings_table(stages, marks, startup, time.perf_counter() - t0, console)
     return 0
+
+
+def _kept_solution(cfg, cache_dir: Path | None, *, quick: bool, optimise: bool,
+                   shadows: bool) -> tuple[Path, str] | None:
+    """``(cache folder, key)`` of the study's stored solution (``lumijax._stored``) for a
+    ``--quick`` run (numbers only: results.json and CSV) that computes nothing but a
+    superposition of dimmers (no fit, no glare, no compliance verdict) with ``[solver]
+    cache`` on; else None."""
+    if (not quick or not cfg.solver.cache or cfg.observers or cfg.compliance is not None
+            or (optimise and cfg.optimise is not None)):
+        return None
+    folder = cache_dir if cache_dir is not None else (
+        None if cfg.source is None else cfg.source.parent / ".lumijax-cache")
+    if folder is None:
+        return None
+    from ._stored import solution_key
+
+    return Path(folder), solution_key(cfg, shadows=shadows)
+
+
+def _rerun(kept: tuple[Path, str], cfg, rs, out: Path, *, config_s: float,
+           startup: float | None, t0: float, timings: bool, console) -> bool:
+    """A dimmer-only rerun: the stored solution superposed at the config's dimmers and written
+    (results.json and the grids' CSV, as ``--quick`` writes them), with no scene, no solve and
+    no JAX; False when no solution is stored under the key (the caller computes)."""
+    from ._stored import load_solution
+    from .report._write import write_stored
+
+    t = time.perf_counter()
+    stored = load_solution(*kept)
+    if stored is None:
+        return False
+    dimmers = stored.dimmers_of(cfg)
+    grids = stored.grid_results(dimmers)
+    superpose_s = time.perf_counter() - t
+    document = stored.document_at(dimmers, grids, {
+        "load": config_s, "config": config_s, "stored_solution": superpose_s,
+        "total": superpose_s})
+    document["solver"] = {**document["solver"], "solution_reused": True}
+    t = time.perf_counter()
+    paths = write_stored(document, grids, rs)
+    _summary_table(document["study"], grids, console)
+    rs.commit()
+    marks = {"compute": superpose_s, "write": time.perf_counter() - t}
+    console.print(f"wrote {len(paths)} files to {out} in {time.perf_counter() - t0:.1f} s "
+                  "(dimmers only: the stored solution superposed, nothing computed)")
+    if timings:
+        _timings_table({"config": config_s}, marks, startup, time.perf_counter() - t0, console)
+    return True
 
 
 def _process_age() -> float | None:
@@ -243,15 +312,20 @@ def _timings_table(timing: dict, marks: dict, startup: float | None, run_s: floa
     console.print(table)
 
 
-def _quick(study):
-    """The study with the photometric solve (``[solver] spectral_samples = 0``): lux as before
+def _quick_config(cfg):
+    """The config with the photometric solve (``[solver] spectral_samples = 0``): lux as before
     for grey rooms, no colour (XYZ, CCT), and one wavelength instead of 16 to solve and gather
     (docs/radiosity.md, "Distinct columns"; what ``--quick`` trades: docs/results.md)."""
-    from dataclasses import replace
-
-    cfg = study.config
     solver = cfg.solver.model_copy(update={"spectral_samples": 0})
-    return replace(study, config=cfg.model_copy(update={"solver": solver}))
+    return cfg.model_copy(update={"solver": solver})
+
+
+def _compilation_cache() -> None:
+    """JAX's persistent compilation cache on, before anything compiles (warns, never raises);
+    called where a command first needs JAX, so a dimmer-only rerun never imports it."""
+    from ._jit_cache import enable_compilation_cache
+
+    enable_compilation_cache()
 
 
 def _report(config: Path, out: Path, *, pictures: bool, console, pdf: bool = False) -> int:
@@ -422,6 +496,9 @@ def _parser() -> argparse.ArgumentParser:
                      help="skip the [optimise] step of the config (docs/optimise.md)")
     run.add_argument("--no-report", action="store_true", help="do not write report.html")
     run.add_argument("--timings", action="store_true", help="print where the time went")
+    run.add_argument("--scheduler", default=None, metavar="tcp://HOST:8786",
+                     help="run direct light, the transport build and the final gather on this "
+                          "Dask scheduler's workers (docs/parallel.md)")
     report = sub.add_parser("report", help="compute a study and write report.html")
     report.add_argument("config", type=Path)
     report.add_argument("--out", type=Path, default=None, help="output folder (default: "
@@ -471,10 +548,9 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.showwarning = show_warning
     warnings.simplefilter("default", LumijaxWarning)
-    from ._jit_cache import enable_compilation_cache
-
-    enable_compilation_cache()  # before the first compilation; warns, never raises
     try:
+        if args.command in ("check", "view", "report"):
+            _compilation_cache()
         if args.command == "check":
             return _check(args.config, as_json=args.json, console=console)
         if args.command == "demo":
@@ -498,7 +574,7 @@ def main(argv: list[str] | None = None) -> int:
         return _run(args.config, out, images=not (args.no_images or args.quick),
                     shadows=not args.no_shadows, optimise=not args.no_optimise,
                     report=not (args.no_report or args.quick), quick=args.quick,
-                    timings=args.timings, console=console)
+                    timings=args.timings, console=console, scheduler=args.scheduler)
     except LumijaxError as e:
         print(f"lumijax: error: {e}", file=sys.stderr)
         return 1

@@ -29,7 +29,7 @@ LAYERS = [
     ("glare",),
     ("render",),
     ("compliance",),
-    ("_study",),
+    ("_study", "_stored"),
     ("optimise",),
     ("report",),
     ("view",),

@@ -37,7 +37,7 @@ from .._atomic import (
 from ..errors import LumijaxError, OutputError
 from ..results import Results
 
-__all__ = ["ResultSet", "write_results"]
+__all__ = ["ResultSet", "write_results", "write_stored"]
 
 #: What a run writes into its folder; a folder holding anything else is not replaced.
 SET_NAMES = frozenset({"results.json", "optimised.toml", "grids", "images", "patches.vtp",
@@ -187,7 +187,8 @@ def _write_text(staging: Path, rel: str, text: str) -> None:
 
 
 def write_results(results: Results, out: str | Path | ResultSet, *, images: bool = True,
-                  timings: dict[str, float] | None = None) -> dict[str, Path]:
+                  timings: dict[str, float] | None = None,
+                  patches: bool = True) -> dict[str, Path]:
     """Write results as one set and return the paths (in the output folder) of the files.
 
     ``out``: a folder (created if needed; the set is swapped in before this returns), or an open
@@ -200,11 +201,12 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
     ``images``, ``images/NAME.png`` false-colour iso-lux maps.
 
     ``timings``: a dict that gets ``images``, the seconds spent drawing them (``lumijax run
-    --timings``).
+    --timings``). ``patches=False``: no ``patches.vtp`` (``lumijax run --quick``: the numbers
+    the iterate loop reads, as a dimmer-only rerun writes them).
     """
     if not isinstance(out, ResultSet):
         with ResultSet(out) as rs:
-            paths = write_results(results, rs, images=images, timings=timings)
+            paths = write_results(results, rs, images=images, timings=timings, patches=patches)
             rs.commit()
         return paths
     rs = out
@@ -213,17 +215,12 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
     staging, out_dir = rs.staging, rs.out
     written: list[str] = []
     try:
-        _write_text(staging, "results.json",
-                    json.dumps(results.to_dict(), indent=1, allow_nan=False))
-        written.append("results.json")
+        _write_document(staging, results.to_dict(), written)
         if results.optimisation is not None:
             # the optimised study, its file paths relative to where it will live
             _write_text(staging, "optimised.toml", results.optimisation.config_text(out_dir))
             written.append("optimised.toml")
-        (staging / "grids").mkdir(exist_ok=True)
-        for name, g in results.grids.items():
-            _write_text(staging, f"grids/{name}.csv", _grid_csv(g.points, g.illuminance_lux))
-            written.append(f"grids/{name}.csv")
+        _write_grids(staging, results.grids, written)
         t_images = time.perf_counter()
         if images and results.grids:
             from ._gridplots import grid_picture
@@ -246,14 +243,49 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         if timings is not None:
             timings["images"] = time.perf_counter() - t_images
         lighting = results.lighting
-        if lighting is not None and lighting.coarse.patches is not None:
-            from ._vtk import write_patches_vtp
-
-            write_patches_vtp(lighting, results.design.dimmers, staging / "patches.vtp")
-            written.append("patches.vtp")
-            _step("wrote patches.vtp")
+        if patches and lighting is not None and lighting.coarse.patches is not None:
+            _write_vtp(staging, lighting, results.design.dimmers, written)
     except OSError as e:
         raise OutputError(f"cannot write results: {e.strerror or e}", file=out_dir) from None
+    return _published(staging, out_dir, written)
+
+
+def write_stored(document: dict, grids: dict, rs: ResultSet) -> dict[str, Path]:
+    """Stage a dimmer-only rerun's numbers in ``rs`` (``lumijax._stored``): ``document`` as
+    results.json and each :class:`~lumijax.results.GridResult` of ``grids`` as its CSV — what
+    :func:`write_results` writes with ``images=False, patches=False``, by the same code."""
+    if rs.staging is None or rs.committed:
+        raise OutputError("this result set is not open", file=rs.out)
+    written: list[str] = []
+    try:
+        _write_document(rs.staging, document, written)
+        _write_grids(rs.staging, grids, written)
+    except OSError as e:
+        raise OutputError(f"cannot write results: {e.strerror or e}", file=rs.out) from None
+    return _published(rs.staging, rs.out, written)
+
+
+def _write_document(staging: Path, document: dict, written: list[str]) -> None:
+    _write_text(staging, "results.json", json.dumps(document, indent=1, allow_nan=False))
+    written.append("results.json")
+
+
+def _write_grids(staging: Path, grids: dict, written: list[str]) -> None:
+    (staging / "grids").mkdir(exist_ok=True)
+    for name, g in grids.items():
+        _write_text(staging, f"grids/{name}.csv", _grid_csv(g.points, g.illuminance_lux))
+        written.append(f"grids/{name}.csv")
+
+
+def _write_vtp(staging: Path, lighting, dimmers, written: list[str]) -> None:
+    from ._vtk import write_patches_vtp
+
+    write_patches_vtp(lighting, dimmers, staging / "patches.vtp")
+    written.append("patches.vtp")
+    _step("wrote patches.vtp")
+
+
+def _published(staging: Path, out_dir: Path, written: list[str]) -> dict[str, Path]:
     for rel in written:
         with contextlib.suppress(OSError):
             os.chmod(staging / rel, file_mode())  # temp files are private; results are not

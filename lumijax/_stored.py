@@ -1,0 +1,220 @@
+"""A study's solution kept between runs, keyed by everything but its dimmers: the iterate loop.
+
+Light adds linearly over networks, so a run that differs from an earlier one only in
+``[networks.NAME] dimmer`` values has nothing to compute: each grid's per-network illuminance
+at dimmer 1 is read back and superposed,
+``E = Σ αₖ Eₖ``. ``lumijax run --quick`` does that without building the scene or importing
+JAX (docs/results.md, "Dimmer-only reruns").
+
+The key (:func:`solution_key`) is a SHA-256 of the validated config with every network's
+``dimmer`` removed (so any other change — geometry, a material, a luminaire, a grid, a solver
+setting — is a new key), the bytes of every file the config names, the run's options
+(``--no-shadows``), the source of every lumijax module and the versions of JAX, jaxlib and
+numpy. A solution is one ``solution-<key>.npz`` file in the study's operator-cache folder,
+written to a temporary file and renamed into place (a reader sees a whole file or none); its
+digest is checked on reading, and a file that fails (truncated, corrupted, another key's) is
+ignored with a warning and rewritten by the full run. Only the numbers are stored: no pickle
+(``allow_pickle=False``), so a foreign file can at worst give wrong numbers, as an edited
+config can.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import io
+import json
+import warnings
+import zipfile
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._atomic import atomic_path
+from .errors import LumijaxWarning, OutputError
+
+__all__ = ["StoredSolution", "solution_key", "solution_path", "store_solution",
+           "load_solution", "DIMMER_ONLY_KEYS"]
+
+FORMAT = "lumijax-solution-1"
+
+#: results.json entries that depend on the dimmers: recomputed from the per-network arrays on
+#: a rerun (grids' values through GridResult.to_dict, networks' ``dimmer``), never stored.
+DIMMER_ONLY_KEYS = ("illuminance_lux", "stats", "direct_lux", "xyz", "cct_k")
+
+
+#: Parts of lumijax that do not compute a stored solution's numbers (they draw, fit, rate
+#: glare or parse the command line; a study with a fit or observers is never stored): their
+#: edits keep the key.
+_NOT_NUMBERS = ("cli.py", "__main__.py", "report", "view", "optimise", "glare")
+
+
+@functools.cache
+def _code_digest() -> str:
+    """SHA-256 of the source of every lumijax module that computes the numbers, and the
+    versions of JAX, jaxlib and numpy: an edited module (an editable install) or an upgrade
+    is a new key."""
+    h = hashlib.sha256(FORMAT.encode())
+    root = Path(__file__).resolve().parent
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root)
+        if rel.parts[0] in _NOT_NUMBERS:
+            continue
+        h.update(str(rel).encode() + b"\0" + path.read_bytes())
+    for dist in ("jax", "jaxlib", "numpy"):
+        try:
+            h.update(f"{dist}={metadata.version(dist)}".encode())
+        except metadata.PackageNotFoundError:
+            h.update(f"{dist}=none".encode())
+    return h.hexdigest()
+
+
+def _keyed(value: Any, h) -> Any:
+    """The config dump as JSON-able values; every existing file it names adds its bytes."""
+    if isinstance(value, dict):
+        return {str(k): _keyed(v, h) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_keyed(v, h) for v in value]
+    if isinstance(value, Path):
+        if value.is_file():
+            h.update(str(value).encode() + b"\0" + value.read_bytes())
+        return str(value)
+    if isinstance(value, float | int | str | bool) or value is None:
+        return value
+    return repr(value)
+
+
+def solution_key(config, *, shadows: bool = True) -> str:
+    """SHA-256 hex of everything that decides a study's per-network light except its dimmers.
+
+    ``config``: the validated :class:`~lumijax.config.StudyConfig` as the run uses it (after
+    ``--quick``'s change to ``[solver]``); ``shadows``: the run's ``--no-shadows`` negated.
+    """
+    dump = config.model_dump(mode="python")
+    for net in dump.get("networks", {}).values():
+        net.pop("dimmer", None)  # the one thing a rerun may change
+    h = hashlib.sha256(_code_digest().encode())
+    doc = _keyed(dump, h)
+    h.update(json.dumps({"config": doc, "shadows": bool(shadows)}, sort_keys=True).encode())
+    return h.hexdigest()
+
+
+def solution_path(cache_dir: str | Path, key: str) -> Path:
+    """Where the solution of ``key`` lives in ``cache_dir``."""
+    return Path(cache_dir) / f"solution-{key}.npz"
+
+
+@dataclass(frozen=True, eq=False)
+class StoredSolution:
+    """A stored solution: results.json without its dimmer-dependent entries, and each grid's
+    per-network arrays at dimmer 1."""
+
+    document: dict
+    grids: dict[str, dict[str, Any]]
+
+    @property
+    def networks(self) -> tuple[str, ...]:
+        return tuple(self.document["networks"])
+
+    def dimmers_of(self, config) -> np.ndarray:
+        """The config's dimmer of each stored network (1 for one without a ``[networks]``
+        entry, as the scene gives it)."""
+        nets = config.networks
+        return np.array([nets[n].dimmer if n in nets else 1.0 for n in self.networks])
+
+    def grid_results(self, dimmers) -> dict:
+        """Each grid as a :class:`~lumijax.results.GridResult` at ``dimmers``."""
+        from .results import GridResult
+
+        d = np.asarray(dimmers, np.float64)
+        return {name: GridResult(name=name, networks=self.networks, dimmers=d, **g)
+                for name, g in self.grids.items()}
+
+    def document_at(self, dimmers, grids: dict, timing_s: dict) -> dict:
+        """results.json at ``dimmers``: the stored entries, the grids' and networks' values at
+        the new dimmers, and this run's ``timing_s``."""
+        doc = dict(self.document)
+        doc["grids"] = {n: g.to_dict() for n, g in grids.items()}
+        doc["networks"] = {n: {"dimmer": float(a), **{k: v for k, v in info.items()
+                                                        if k != "dimmer"}}
+                           for (n, info), a in zip(self.document["networks"].items(), dimmers,
+                                                   strict=True)}
+        doc["timing_s"] = timing_s
+        return doc
+
+
+_GRID_ARRAYS = ("points", "normals", "by_network_lux", "direct_by_network_lux",
+                "xyz_by_network")
+
+
+def store_solution(results, cache_dir: str | Path, key: str) -> Path | None:
+    """Write ``results``' solution under ``key`` (atomically); warn and return None where the
+    folder cannot be written. ``results`` must be at the config's design, not optimised."""
+    arrays: dict[str, np.ndarray] = {}
+    grids = {}
+    for i, (name, g) in enumerate(results.grids.items()):
+        for a in _GRID_ARRAYS:
+            v = getattr(g, a)
+            if v is not None:
+                arrays[f"g{i}.{a}"] = np.asarray(v, np.float64)
+        grids[name] = {"index": i, "shape": None if g.shape is None else list(g.shape),
+                       "target_lux": g.target_lux}
+    doc = results.to_dict()
+    for g in doc["grids"].values():
+        for k in (*DIMMER_ONLY_KEYS, "points", "normals", "by_network_lux", "shape",
+                  "target_lux"):
+            g.pop(k, None)
+    meta = {"format": FORMAT, "key": key, "document": doc, "grids": grids}
+    arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    payload = buf.getvalue()
+    path = solution_path(cache_dir, key)
+    try:
+        with atomic_path(path, what="stored solution", suffix=".npz") as tmp:
+            tmp.write_bytes(hashlib.blake2b(payload, digest_size=32).digest() + payload)
+    except OutputError as e:
+        warnings.warn(f"cannot keep the solution for dimmer-only reruns ({e}); the next run "
+                      "computes again", LumijaxWarning, stacklevel=2)
+        return None
+    return path
+
+
+def load_solution(cache_dir: str | Path, key: str) -> StoredSolution | None:
+    """The solution stored under ``key``, or None: none stored, or one that fails its digest
+    or its key (warned; the full run then replaces it)."""
+    path = solution_path(cache_dir, key)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        return _bad(path, f"unreadable ({e.strerror or e})")
+    payload = data[32:]
+    if len(data) < 32 or hashlib.blake2b(payload, digest_size=32).digest() != data[:32]:
+        return _bad(path, "corrupted or truncated (its digest does not match)")
+    try:
+        with np.load(io.BytesIO(payload), allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        meta = json.loads(arrays.pop("meta").tobytes())
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
+        return _bad(path, f"unreadable ({type(e).__name__})")
+    if meta.get("format") != FORMAT or meta.get("key") != key:
+        return _bad(path, "not the solution of this study")
+    grids = {}
+    for name, g in meta["grids"].items():
+        i = g["index"]
+        grids[name] = {a: arrays.get(f"g{i}.{a}") for a in _GRID_ARRAYS}
+        grids[name].update(shape=None if g["shape"] is None else tuple(g["shape"]),
+                           target_lux=g["target_lux"])
+    return StoredSolution(meta["document"], grids)
+
+
+def _bad(path: Path, why: str) -> StoredSolution | None:
+    """None, with the warning that says why the file at ``path`` was not used."""
+    warnings.warn(f"stored solution {path} is {why}: ignored, computing again", LumijaxWarning,
+                  stacklevel=3)
+    return None
