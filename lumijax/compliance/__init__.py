@@ -8,7 +8,12 @@ from ._maintenance import (
     luminaire_maintenance_factor as luminaire_maintenance_factor,
     maintenance_factor as maintenance_factor,
 )
-from ._obtrusive import intensity_toward as intensity_toward, upward_flux as upward_flux
+from ._obtrusive import (
+    intensity_toward as intensity_toward,
+    reflected_upward_flux as reflected_upward_flux,
+    sky_fraction as sky_fraction,
+    upward_flux as upward_flux,
+)
 from ._sensors import (
     SensorLight as SensorLight,
     modelling_ratio as modelling_ratio,

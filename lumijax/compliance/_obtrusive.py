@@ -1,6 +1,7 @@
 """Obtrusive light (CIE 150:2017): the upward light ratio of the installation from each
-luminaire's own photometry at its aim, the luminous intensity of each luminaire toward
-sensitive points, and the average luminance of a facade from a surface grid.
+luminaire's own photometry at its aim (direct) and the inter-reflected flux that leaves the
+scene toward the sky (reflected), the luminous intensity of each luminaire toward sensitive
+points, and the average luminance of a facade from a surface grid.
 
 All at dimmer 1 per luminaire or network: the values at other dimmers are JAX functions of
 them (``_verdict``), so they superpose and differentiate.
@@ -13,7 +14,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-__all__ = ["upward_flux", "intensity_toward", "sphere_grid"]
+__all__ = ["upward_flux", "reflected_upward_flux", "sky_fraction", "intensity_toward",
+           "sphere_grid"]
 
 
 def sphere_grid(n_theta: int = 180, n_phi: int = 360):
@@ -47,6 +49,40 @@ def upward_flux(scene, n_theta: int = 180, n_phi: int = 360
 def _fluxes(dist, rot, u, dw, up):
     i = dist.intensity(u @ rot) * dw  # Rᵀu as row vectors: u @ R
     return jnp.sum(jnp.where(up, i, 0.0)), jnp.sum(i)
+
+
+def sky_fraction(patches, caster, *, rays: int = 256, seed: int = 0, chunk: int = 4096
+                 ) -> Float[np.ndarray, " patches"]:
+    """Per patch, the fraction of its (Lambertian, cosine-weighted) exitance that leaves the
+    scene above the horizontal: stratified cosine-weighted rays from its centroid, counted when
+    they meet no surface and climb (z > 0). A ray meeting any face, front or back, is stopped
+    there: what a surface reflects again is in that surface's own exitance."""
+    from ..radiosity._gather import _cosine_directions, _frames
+
+    local = _cosine_directions(rays)
+    rng = np.random.default_rng(seed)
+    out = np.zeros(patches.n)
+    for s in range(0, patches.n, chunk):
+        c = np.asarray(patches.centroid[s:s + chunk], np.float64)
+        frames = _frames(np.asarray(patches.normal[s:s + chunk], np.float64), rng)
+        dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
+        tri, _ = caster.first_hit(np.repeat(c, rays, axis=0), dirs)
+        sky = (tri < 0) & (dirs[:, 2] > 0)
+        out[s:s + len(c)] = sky.reshape(len(c), rays).mean(axis=1)
+    return out
+
+
+def reflected_upward_flux(lighting, *, rays: int = 256, seed: int = 0
+                          ) -> Float[np.ndarray, " net"]:
+    """Per network at dimmer 1, the inter-reflected flux (lm) that leaves the scene toward the
+    sky: ``Σ_j A_j B_kj f_j`` over the solve's patches, B the luminous exitance (lm/m²) and f
+    :func:`sky_fraction`. Zeros when no inter-reflection was computed."""
+    k = lighting.coarse.radiosity.shape[0]
+    patches = lighting.coarse.patches
+    if patches is None or patches.n == 0 or not len(lighting.scene.triangles):
+        return np.zeros(k)
+    f = sky_fraction(patches, lighting.scene.raycaster, rays=rays, seed=seed)
+    return np.asarray(lighting.coarse.radiosity, np.float64) @ (np.asarray(patches.area) * f)
 
 
 def intensity_toward(scene, point, *, shadows: bool = True) -> Float[np.ndarray, " lum"]:

@@ -7,7 +7,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 __all__ = ["AreaRequirement", "EN12464_1", "EN12464_2", "surrounding_lux",
-           "SURROUNDING_U0", "BACKGROUND_RATIO", "BACKGROUND_U0", "CIE150", "ZoneLimits"]
+           "SURROUNDING_U0", "BACKGROUND_RATIO", "BACKGROUND_U0", "CIE150", "CIE150_2003_ULR",
+           "ZoneLimits", "RoadClass", "EN13201_2", "P_CLASS_MAX_RATIO"]
 
 
 class AreaRequirement(NamedTuple):
@@ -79,11 +80,39 @@ class ZoneLimits(NamedTuple):
     lb: float
 
 
-#: CIE 150:2017, Table 2 (E1 after curfew: 0 lx; 1 lx where it is public road lighting).
+#: CIE 150:2017, Table 2 (E1 after curfew: 0 lx; 1 lx where it is public road lighting). The
+#: ULR column is the 2017 edition's (0, 0, 2.5 %, 5 %, 15 %); the 2003 edition's, which
+#: EN 12193:2008 repeats, is :data:`CIE150_2003_ULR` (give ``ulr_max`` to judge by it).
 CIE150 = {
     "E0": ZoneLimits(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
     "E1": ZoneLimits(2.0, 0.0, 2500.0, 0.0, 0.0, 0.0),
-    "E2": ZoneLimits(5.0, 1.0, 7500.0, 500.0, 0.05, 5.0),
-    "E3": ZoneLimits(10.0, 2.0, 10000.0, 1000.0, 0.15, 10.0),
-    "E4": ZoneLimits(25.0, 5.0, 25000.0, 2500.0, 0.25, 25.0),
+    "E2": ZoneLimits(5.0, 1.0, 7500.0, 500.0, 0.025, 5.0),
+    "E3": ZoneLimits(10.0, 2.0, 10000.0, 1000.0, 0.05, 10.0),
+    "E4": ZoneLimits(25.0, 5.0, 25000.0, 2500.0, 0.15, 25.0),
 }
+#: CIE 150:2003 Table 2's ULR (E1–E4; E0 did not exist), also EN 12193:2008 Table 5.
+CIE150_2003_ULR = {"E1": 0.0, "E2": 0.05, "E3": 0.15, "E4": 0.25}
+
+
+class RoadClass(NamedTuple):
+    """One EN 13201-2:2015 lighting class of the illuminance method: the least maintained
+    average horizontal illuminance Ē (lx) and, per family, the least overall uniformity U0
+    (C classes) or the least point illuminance Emin (lx, P classes); None: not required."""
+
+    em_lux: float
+    u0: float | None
+    emin_lux: float | None
+    title: str
+
+
+#: EN 13201-2:2015 Table 3 (C classes, conflict areas) and Table 4 (P classes, pedestrian and
+#: low-speed areas). M classes (luminance, r-tables) and the HS, SC and EV classes are not here.
+EN13201_2 = {
+    **{f"C{i}": RoadClass(e, 0.40, None, "conflict area") for i, e in enumerate(
+        (50.0, 30.0, 20.0, 15.0, 10.0, 7.5))},
+    **{f"P{i + 1}": RoadClass(e, None, m, "pedestrian and low-speed area") for i, (e, m) in
+       enumerate(((15.0, 3.0), (10.0, 2.0), (7.5, 1.5), (5.0, 1.0), (3.0, 0.6), (2.0, 0.4)))},
+}
+#: EN 13201-2:2015 Table 4, note: to keep the light even, a P class's actual Ē should not
+#: exceed 1.5 × the class's Ē.
+P_CLASS_MAX_RATIO = 1.5

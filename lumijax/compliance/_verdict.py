@@ -23,7 +23,7 @@ from ..errors import ConfigError
 from . import _tables
 from ._energy import PowerModel, leni_kwh_per_m2, power_model
 from ._maintenance import network_maintenance
-from ._obtrusive import intensity_toward, upward_flux
+from ._obtrusive import intensity_toward, reflected_upward_flux, upward_flux
 
 __all__ = ["Criterion", "ComplianceModel", "Compliance", "compliance_model",
            "evaluate_compliance"]
@@ -60,6 +60,7 @@ class ComplianceModel(eqx.Module):
     power: PowerModel | None
     ulr_up: Float[Array, " net"]
     ulr_total: Float[Array, " net"]
+    ulr_reflected: Float[Array, " net"]  # lm at dimmer 1 reflected toward the sky
     intensity: dict  # sensitive point → (luminaires,) cd at dimmer 1
     lum_network: Array
     post_mask: Float[Array, " net"]
@@ -108,14 +109,16 @@ class ComplianceModel(eqx.Module):
             return jnp.where(eh > 0, ez / jnp.where(eh > 0, eh, 1.0), 0.0)
         if kind == "max":
             return jnp.max(lux(spec[1]))
+        if kind == "min":
+            return jnp.min(lux(spec[1]))
         if kind == "luminance":
             return jnp.sum(self.weights[spec[1]] * lux(spec[1]))
         if kind == "intensity":
             return jnp.max(self.intensity[spec[1]] * w[self.lum_network])
         if kind == "ulr":
             tot = jnp.sum(w * self.ulr_total)
-            return jnp.where(tot > 0, jnp.sum(w * self.ulr_up) / jnp.where(tot > 0, tot, 1.0),
-                             0.0)
+            up = self.ulr_up + (self.ulr_reflected if spec[1:] == ("reflected",) else 0.0)
+            return jnp.where(tot > 0, jnp.sum(w * up) / jnp.where(tot > 0, tot, 1.0), 0.0)
         if kind == "power_density":
             return self.power.total_w(d, spec[1]) / self.areas_m2[spec[2]]
         if kind == "leni":
@@ -252,6 +255,11 @@ def compliance_model(study, results) -> ComplianceModel:
     for ai, a in enumerate(comp.areas):
         key = f"compliance.areas[{ai}]"
         task = use(need_grid(a.grid, f"{key}.grid"))
+        if a.standard == "EN 13201-2":
+            criteria.extend(_road_criteria(a, task))
+            areas_m2[a.name] = a.area_m2 if a.area_m2 is not None else _grid_area(
+                cfg.grids[grids_idx[task]], src, f"{key}.area_m2")
+            continue
         table = _tables.EN12464_1 if a.standard == "EN 12464-1" else _tables.EN12464_2
         row = None
         if a.reference is not None:
@@ -372,7 +380,7 @@ def compliance_model(study, results) -> ComplianceModel:
                                           note=why))
 
     k = len(names)
-    ulr_up = ulr_tot = jnp.zeros(k)
+    ulr_up = ulr_tot = ulr_refl = jnp.zeros(k)
     intensity: dict[str, Array] = {}
     post_mask = post_value = jnp.zeros(k)
     lum_net = jnp.asarray([names.index(lum.network) for lum in sc.luminaires], jnp.int32)
@@ -406,8 +414,19 @@ def compliance_model(study, results) -> ComplianceModel:
             up, tot = upward_flux(sc)
             ulr_up = jnp.asarray(np.bincount(np.asarray(lum_net), up, minlength=k))
             ulr_tot = jnp.asarray(np.bincount(np.asarray(lum_net), tot, minlength=k))
-            criteria.append(Criterion("CIE 150", "installation", "ULR", "", lim.ulr, "max",
-                                      ("ulr",), zone, note="direct light only"))
+            ulr_lim, ulr_src = (lim.ulr, zone) if ob.ulr_max is None else (ob.ulr_max, "given")
+            criteria.append(Criterion("CIE 150", "installation", "ULR", "", ulr_lim, "max",
+                                      ("ulr",), ulr_src, note="direct light only"))
+            if ob.reflected_ulr != "off" and results.lighting is not None:
+                ulr_refl = jnp.asarray(reflected_upward_flux(
+                    results.lighting, rays=cfg.solver.gather_rays))
+                criteria.append(Criterion(
+                    "CIE 150", "installation", "ULR incl. reflected", "",
+                    ulr_lim if ob.reflected_ulr == "judge" else None, "max",
+                    ("ulr", "reflected"), ulr_src if ob.reflected_ulr == "judge" else
+                    "(reported)",
+                    note="direct + inter-reflected flux toward the sky, over the luminaires' "
+                         "flux"))
         for fi, fname in enumerate(ob.facades):
             fkey = f"compliance.obtrusive.facades[{fi}]"
             use(need_grid(fname, fkey, ("surface",)))
@@ -422,11 +441,33 @@ def compliance_model(study, results) -> ComplianceModel:
     mf = jnp.asarray(network_maintenance(comp.maintenance, names, src))
     glare = results.glare.model if results.glare is not None else None
     return ComplianceModel(grids=grids, weights=weights, mf=mf, power=power, ulr_up=ulr_up,
-                           ulr_total=ulr_tot, intensity=intensity, lum_network=lum_net,
+                           ulr_total=ulr_tot, ulr_reflected=ulr_refl, intensity=intensity, lum_network=lum_net,
                            post_mask=post_mask, post_value=post_value, glare=glare,
                            design=results.design if glare is not None else None,
                            criteria=tuple(criteria), areas_m2=areas_m2, energy=energy,
                            networks=names)
+
+
+def _road_criteria(a, task: str) -> list[Criterion]:
+    """EN 13201-2:2015's illuminance-method criteria of a road area of class ``road_class``
+    (Ē ≥, and U0 ≥ for a C class; Emin ≥ and Ē ≤ 1.5 × the class's Ē for a P class); a given
+    ``em_lux`` or ``u0`` replaces the class's value."""
+    std = "EN 13201-2"
+    row = _tables.EN13201_2[a.road_class]
+    ref = f"EN 13201-2:2015 {a.road_class}"
+    em = a.em_lux if a.em_lux is not None else row.em_lux
+    out = [Criterion(std, a.name, "Em", "lx", em, "min", ("mean", task),
+                     "given" if a.em_lux is not None else ref)]
+    u0 = a.u0 if a.u0 is not None else row.u0
+    if u0 is not None:
+        out.append(Criterion(std, a.name, "U0", "", u0, "min", ("u0", task),
+                             "given" if a.u0 is not None else ref))
+    if row.emin_lux is not None:
+        out.append(Criterion(std, a.name, "Emin", "lx", row.emin_lux, "min", ("min", task), ref))
+        out.append(Criterion(std, a.name, "Em (uniformity cap)", "lx",
+                             _tables.P_CLASS_MAX_RATIO * row.em_lux, "max", ("mean", task),
+                             f"{ref}, Table 4 note: Ē ≤ 1.5 × the class's"))
+    return out
 
 
 def _glare_spec(results, area, kind: str) -> tuple[tuple | None, str]:

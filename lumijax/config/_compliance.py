@@ -23,6 +23,8 @@ __all__ = ["SensorGrid", "AreaGrid", "SurfaceGrid", "ComplianceConfig", "Mainten
 Fraction = Annotated[float, Field(gt=0, le=1)]
 Unit = Annotated[float, Field(ge=0, le=1)]
 Hours = Annotated[float, Field(ge=0, le=8760)]
+#: EN 13201-2:2015 lighting classes of the illuminance method (Tables 3 and 4).
+ROAD_CLASSES = tuple(f"C{i}" for i in range(6)) + tuple(f"P{i}" for i in range(1, 7))
 #: CIE 150:2017 environmental zones.
 ZONES = ("E0", "E1", "E2", "E3", "E4")
 #: CIE 97:2005 luminaire types (Table 4's rows) and environments (its columns).
@@ -73,7 +75,10 @@ class AreaGrid(_StandardGrid):
     """``kind = "area"``: an EN 12464-1 calculation area (a rectangle ``origin + s·u + t·v``)
     with points at the centres of cells of the standard's spacing ``p = 0.2·5^log10(d)`` m
     (d the longer side, m; p ≤ 10 m), less a ``border_m`` band along its edges and less the
-    rectangle of the area grid ``exclude`` (an immediate surrounding or a background)."""
+    rectangle of the area grid ``exclude`` (an immediate surrounding or a background).
+    ``rule = "EN 13201-3"``: a road field instead, ``u`` along the road between two luminaires
+    (S m) and ``v`` across it (W m): N = 10 points along (S ≤ 30 m, else D = S/N ≤ 3 m) and
+    n ≥ 3 across (d = W/n ≤ 1.5 m), at the cells' centres."""
 
     kind: Literal["area"]
     origin: Vec3
@@ -83,6 +88,19 @@ class AreaGrid(_StandardGrid):
     border_m: NonNegative = 0.0
     exclude: Name | None = None
     normal: Vec3 | None = None
+    rule: Literal["EN 12464-1", "EN 13201-3"] = "EN 12464-1"
+
+    @model_validator(mode="after")
+    def _road_rule(self):
+        if self.rule == "EN 13201-3":
+            given = [k for k in ("spacing", "exclude") if getattr(self, k) is not None]
+            if self.border_m:
+                given.append("border_m")
+            if given:
+                raise ValueError("rule = \"EN 13201-3\" sets the points itself: "
+                                 f"{', '.join(repr(k) for k in given)} belong to EN 12464-1 "
+                                 "areas")
+        return self
 
 
 class SurfaceGrid(_StandardGrid):
@@ -194,9 +212,10 @@ class AreaCriteria(_Model):
     table row ``reference`` (docs/compliance.md lists those transcribed) or are given."""
 
     name: Name
-    standard: Literal["EN 12464-1", "EN 12464-2"]
+    standard: Literal["EN 12464-1", "EN 12464-2", "EN 13201-2"]
     grid: Name
     reference: str | None = None
+    road_class: str | None = None
     em_lux: Positive | None = None
     u0: Fraction | None = None
     ugr_l: Positive | None = None
@@ -210,6 +229,31 @@ class AreaCriteria(_Model):
     networks: list[Name] | None = None
     area_m2: Positive | None = None
     observers: list[Name] | None = None
+
+    @field_validator("road_class")
+    @classmethod
+    def _road_class(cls, v):
+        if v is not None and v not in ROAD_CLASSES:
+            raise ValueError(f"unknown EN 13201-2 lighting class {v!r}; the illuminance classes "
+                             f"are {', '.join(ROAD_CLASSES)} (M classes are not implemented)")
+        return v
+
+    @model_validator(mode="after")
+    def _road(self):
+        road = self.standard == "EN 13201-2"
+        if road and self.road_class is None:
+            raise ValueError("an EN 13201-2 area needs 'road_class' (C0–C5 or P1–P6)")
+        if not road and self.road_class is not None:
+            raise ValueError(f"'road_class' belongs to standard = \"EN 13201-2\", not "
+                             f"{self.standard!r}")
+        if road:
+            extra = [k for k in ("reference", "ugr_l", "gr_l", "ra", "ez_lux", "cylindrical",
+                                 "modelling", "surrounding", "background", "observers")
+                     if getattr(self, k) is not None]
+            if extra:
+                raise ValueError(f"an EN 13201-2 area takes 'road_class' (and 'em_lux', 'u0', "
+                                 f"'area_m2'), not {', '.join(repr(k) for k in extra)}")
+        return self
 
     @model_validator(mode="after")
     def _some(self):
@@ -240,6 +284,8 @@ class ObtrusiveConfig(_Model):
     facades: list[Name] = []
     sensitive: list[SensitivePoint] = []
     upward_light: bool = True
+    reflected_ulr: Literal["report", "judge", "off"] = "report"
+    ulr_max: Unit | None = None
 
     @field_validator("zone")
     @classmethod

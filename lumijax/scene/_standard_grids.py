@@ -14,7 +14,8 @@ from jaxtyping import Float, Int
 from ..errors import ConfigError
 from ._elements import Grid, plane_grid_points
 
-__all__ = ["STANDARD_GRID_KINDS", "en12464_spacing", "area_counts", "SurfaceSamples",
+__all__ = ["STANDARD_GRID_KINDS", "en12464_spacing", "area_counts", "road_counts",
+           "SurfaceSamples",
            "surface_samples", "build_grids"]
 
 STANDARD_GRID_KINDS = ("sensor", "area", "surface")
@@ -37,6 +38,14 @@ def area_counts(length_m: float, width_m: float, spacing_m: float | None = None
     d = short if long >= 2.0 * short else long
     p = en12464_spacing(d) if spacing_m is None else spacing_m
     return (max(1, math.ceil(length_m / p - 1e-9)), max(1, math.ceil(width_m / p - 1e-9)), p)
+
+
+def road_counts(length_m: float, width_m: float) -> tuple[int, int]:
+    """EN 13201-3:2015's illuminance points of a road field ``length_m`` (m, the luminaire
+    spacing S) by ``width_m`` (m): N = 10 along for S ≤ 30 m, else the least N with
+    S/N ≤ 3 m; across, the least n ≥ 3 with W/n ≤ 1.5 m."""
+    n_along = 10 if length_m <= 30.0 + 1e-9 else math.ceil(length_m / 3.0 - 1e-9)
+    return n_along, max(3, math.ceil(width_m / 1.5 - 1e-9))
 
 
 @dataclass(frozen=True)
@@ -108,7 +117,10 @@ def _area_points(g, frame, src, key, areas: dict):
     uu, vv = u / lu, v / lv
     o = origin + b * uu + b * vv
     u2, v2 = (lu - 2 * b) * uu, (lv - 2 * b) * vv
-    nu, nv, _ = area_counts(lu - 2 * b, lv - 2 * b, g.spacing)
+    if g.rule == "EN 13201-3":
+        nu, nv = road_counts(lu, lv)
+    else:
+        nu, nv, _ = area_counts(lu - 2 * b, lv - 2 * b, g.spacing)
     if nu * nv > 100_000_000:
         raise ConfigError(f"{nu} × {nv} points, more than a grid may have", file=src, key=key)
     pts = plane_grid_points(o, u2, v2, nu, nv)
