@@ -27,16 +27,17 @@ ConstrainedMethod = Literal["slsqp", "trust-constr"]
 #: ``misfit`` (RMS of E − target map over the map's mean); study-wide (no ``grid``): ``power``
 #: (W) and ``patch_luminance`` (cd/m², brightest radiosity patch); per observer (``observer``,
 #: every observer when omitted), from ``lumijax.glare``: ``ugr``, ``gr`` (dimensionless) and
-#: ``ti`` (%), each the observer's worst over its directions.
+#: ``ti`` (%), each the observer's worst over its directions; ``surface_luminance`` (cd/m²,
+#: ``surface``: a geometry name), the largest luminance of that surface the observer sees.
 CRITERIA = ("avg", "min", "max", "u0", "luminance", "misfit", "power", "patch_luminance",
-            "ugr", "gr", "ti")
+            "ugr", "gr", "ti", "surface_luminance")
 Criterion = Literal["avg", "min", "max", "u0", "luminance", "misfit", "power",
-                    "patch_luminance", "ugr", "gr", "ti"]
+                    "patch_luminance", "ugr", "gr", "ti", "surface_luminance"]
 #: Which bounds each criterion takes: "min" (a floor), "max" (a ceiling) or both.
 CRITERION_SENSE = {"avg": ("min", "max"), "min": ("min",), "max": ("max",), "u0": ("min",),
                    "luminance": ("max",), "misfit": ("max",), "power": ("max",),
                    "patch_luminance": ("max",), "ugr": ("max",), "gr": ("max",),
-                   "ti": ("max",)}
+                   "ti": ("max",), "surface_luminance": ("max",)}
 _STUDY_WIDE = ("power", "patch_luminance")
 #: The criteria of an observer (``lumijax.glare``): no grid, an optional ``observer``.
 GLARE_CRITERIA = ("ugr", "gr", "ti")
@@ -56,6 +57,7 @@ class ConstraintConfig(BaseModel):
     criterion: Criterion
     grid: Annotated[str, Field(min_length=1)] | None = None
     observer: Annotated[str, Field(min_length=1)] | None = None
+    surface: Annotated[str, Field(min_length=1)] | None = None
     min: Annotated[float, Field(ge=0, le=1e10)] | None = None
     max: Annotated[float, Field(gt=0, le=1e10)] | None = None
 
@@ -78,7 +80,10 @@ class ConstraintConfig(BaseModel):
                              "can meet both")
         if self.criterion == "u0" and self.min is not None and self.min > 1:
             raise ValueError(f"U0 = Emin/Eavg is at most 1, got min = {self.min:g}")
-        if self.criterion in GLARE_CRITERIA:
+        if (self.surface is not None) != (self.criterion == "surface_luminance"):
+            raise ValueError("'surface' (a geometry name) goes with criterion "
+                             "'surface_luminance', and that criterion needs it")
+        if self.criterion in GLARE_CRITERIA or self.criterion == "surface_luminance":
             if self.grid is not None:
                 raise ValueError(f"{self.criterion!r} is an observer's rating: give "
                                  "'observer' (or none, for every observer), not 'grid'")

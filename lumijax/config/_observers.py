@@ -57,6 +57,9 @@ class ObserverConfig(_Model):
     fan: FanConfig | None = None
     road_luminance_cdm2: Luminance | None = None
     road_grid: Name | None = None
+    max_luminance_cdm2: dict[Name, Luminance] | None = Field(
+        default=None, description="limits (cd/m²) on the luminance of named surfaces this "
+        "observer sees: { geometry name = limit }")
 
     @model_validator(mode="after")
     def _sight(self):
@@ -78,10 +81,12 @@ class ObserverConfig(_Model):
 
 
 def check_observers(cfg, fail) -> None:
-    """Cross-references of ``cfg.observers``: unique names, known groups and road grids.
+    """Cross-references of ``cfg.observers``: unique names, known groups, road grids and the
+    named surfaces of ``max_luminance_cdm2``.
     ``fail(key, message)`` raises the ConfigError (with the line, as ``_load`` finds it)."""
     names: dict[str, int] = {}
     grids = [g.name for g in cfg.grids]
+    surfaces = sorted({g.name for g in cfg.geometry if g.name})
     for i, o in enumerate(cfg.observers):
         key = f"observers[{i}]"
         if o.name in names:
@@ -94,3 +99,8 @@ def check_observers(cfg, fail) -> None:
         if o.road_grid is not None and o.road_grid not in grids:
             fail(f"{key}.road_grid", f"unknown grid {o.road_grid!r}; grids: "
                                      f"{', '.join(grids) or 'none'}")
+        for name in o.max_luminance_cdm2 or {}:
+            if name not in surfaces:
+                fail(f"{key}.max_luminance_cdm2.{name}",
+                     f"no [[geometry]] item is named {name!r}; named surfaces: "
+                     f"{', '.join(surfaces) or 'none (give a geometry item a name)'}")

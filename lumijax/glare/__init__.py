@@ -30,6 +30,11 @@ from ._ratings import (
     ugr as ugr,
     veiling_luminance as veiling_luminance,
 )
+from ._surfaces import (
+    FIELD_RAYS as FIELD_RAYS,
+    SeenSurfaces as SeenSurfaces,
+    build_seen_surfaces as build_seen_surfaces,
+)
 from ._table import (
     STANDARD_REFLECTANCES as STANDARD_REFLECTANCES,
     STANDARD_ROOMS as STANDARD_ROOMS,

@@ -13,6 +13,7 @@ import numpy as np
 from ..errors import SolveError
 from ._model import GlareModel, GlareRatings
 from ._ratings import SOLID_ANGLE_RANGE_SR
+from ._surfaces import SeenSurfaces
 
 __all__ = ["Glare", "TOP_CONTRIBUTORS"]
 
@@ -26,11 +27,16 @@ class Glare:
 
     ``ratings`` are the host (float64) :class:`GlareRatings` per view; ``at(design)`` is the
     same model at another design (exact: no ray, dimmers, aims and levels alike).
+    ``surfaces`` (a :class:`~lumijax.glare.SeenSurfaces`, None without patches or named
+    surfaces) with ``radiosity`` (``(networks, patches)`` lm/m² at dimmer 1) give the
+    luminance of the named surfaces each observer sees, at the design's dimmers.
     """
 
     model: GlareModel
     design: Any
     observers: tuple = ()
+    surfaces: SeenSurfaces | None = None
+    radiosity: np.ndarray | None = None
 
     def at(self, design) -> Glare:
         return dataclasses.replace(self, design=design)
@@ -62,8 +68,20 @@ class Glare:
     def to_dict(self) -> dict[str, Any]:
         """results.json's ``glare``: ``{observer: {...}}`` (docs/results.md)."""
         out = {name: self._observer(i) for i, name in enumerate(self.model.observers)}
+        surfaces = self.surface_luminance()
+        for name, entry in out.items():
+            if surfaces is not None:
+                entry["surfaces"] = surfaces.get(name, {})
         _check_finite(out, "glare")
         return out
+
+    def surface_luminance(self) -> dict[str, dict[str, dict]] | None:
+        """Per observer, each named surface it sees: its largest and mean luminance (cd/m²) at
+        the design's dimmers, and its ``max_luminance_cdm2`` limit with whether it is met."""
+        if self.surfaces is None or self.radiosity is None:
+            return None
+        b = np.asarray(self.design.dimmers, np.float64) @ np.asarray(self.radiosity, np.float64)
+        return self.surfaces.to_dict(b)
 
     def _observer(self, i: int) -> dict[str, Any]:
         r = self.ratings

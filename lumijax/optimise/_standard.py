@@ -37,6 +37,7 @@ from ._constraints import (
 from ._glare_constraint import GLARE_UNITS, GlareConstraint
 from ._infeasible import explain_infeasible, find_feasible
 from ._objective import Objective
+from ._surface_constraint import surface_constraints
 
 __all__ = ["build_constraints", "design_to_standard", "MAP_MISFIT_MAX", "price_step"]
 
@@ -72,7 +73,7 @@ def _grids(study):
 
 
 def build_constraints(study, ocfg, goals, power: PowerModel, *, has_patches: bool,
-                      glare=None, params=None):
+                      glare=None, params=None, surfaces=None):
     """The hard constraints of a constrained design, with ``criterion`` names (for the price
     steps); a :class:`ConfigError` names the key of a constraint the study cannot compute or
     that contradicts another. ``glare`` (the study's :class:`~lumijax.glare.GlareModel`, None
@@ -124,8 +125,16 @@ def build_constraints(study, ocfg, goals, power: PowerModel, *, has_patches: boo
                               key="optimise.max_luminance_cdm2")
         made.append(("patch_luminance", _patch(ocfg.max_luminance_cdm2,
                                                "optimise.max_luminance_cdm2")))
+    # the observers' max_luminance_cdm2 limits on named surfaces (lumijax.glare.SeenSurfaces)
+    made.extend(("surface_luminance", c) for c in surface_constraints(surfaces,
+                                                                       source=cfg.source))
     for j, cc in enumerate(ocfg.constraints):
         key = f"optimise.constraints[{j}]"
+        if cc.criterion == "surface_luminance":
+            made.extend(("surface_luminance", c) for c in surface_constraints(
+                surfaces, observer=cc.observer, surface=cc.surface, bound=cc.max, key=key,
+                source=cfg.source))
+            continue
         if cc.grid is not None and cc.grid not in grids:
             raise ConfigError(f"no grid named {cc.grid!r}; grids: {', '.join(grids) or 'none'}",
                               file=cfg.source, key=f"{key}.grid")
@@ -293,7 +302,8 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
     power = _power_model(setup, sc)
     made = build_constraints(study, ocfg, goals, power, has_patches=has_patches,
                              glare=None if results.glare is None else results.glare.model,
-                             params=params)
+                             params=params,
+                             surfaces=None if results.glare is None else results.glare.surfaces)
     constraints = tuple(c for _, c in made)
     if ocfg.objective == "power":
         if not constraints:

@@ -1,0 +1,95 @@
+"""The luminance of the surfaces an observer sees, against the closed form: a Lambertian wall of
+reflectance ρ lit by an isotropic source of intensity I at distance d on its normal has, at the
+foot of that normal, E = I / d² and L = ρ E / π (cd/m²); nothing else in the scene, so no
+inter-reflection (a plane does not see itself). A second named panel hidden behind the wall is
+not seen. The limit on the wall is reported and, as a constraint, linear in the dimmer."""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from helpers import lamp, material, observer, photometry, rectangle, study_text, table
+
+import lumijax
+from lumijax.errors import ConfigError
+from lumijax.optimise._constraints import DesignLight
+from lumijax.optimise._surface_constraint import surface_constraints
+
+RHO, FLUX, D = 0.6, 4000.0, 6.0
+I_CD = FLUX / (4 * math.pi)  # cd
+L_FOOT = RHO * I_CD / D ** 2 / math.pi  # cd/m², the wall's brightest point
+
+
+def _text(limit):
+    return study_text(
+        table("solver", target_patches=200, spectral_samples=0, gather_rays=64),
+        material("wall", RHO),
+        photometry("iso", kind="isotropic", flux_lm=FLUX),
+        # the wall at y = 0 facing +y (u × v), 2 × 2 m about the foot point (0, 0, 1)
+        rectangle([-1, 0, 0], [0, 0, 2], [2, 0, 0], name="wall"),
+        # a panel behind it, facing the observer's way but hidden by the wall
+        rectangle([-0.5, -1, 0.5], [0, 0, 1], [1, 0, 0], name="panel"),
+        lamp("L", [0, D, 1], "n", "iso"),
+        observer("eye", [0.3, 3.0, 1.4], direction=[0, -1, 0],
+                 max_luminance_cdm2={"wall": limit}))
+
+
+@pytest.fixture(scope="module")
+def lit(tmp_path_factory):
+    d = tmp_path_factory.mktemp("surfaces")
+    (d / "study.toml").write_text(_text(0.9 * L_FOOT))
+    return lumijax.compute(lumijax.load_study(d / "study.toml"), cache_dir=d / "cache")
+
+
+def test_wall_luminance_is_rho_e_over_pi_and_the_hidden_panel_is_not_seen(lit):
+    got = lit.glare.to_dict()["eye"]["surfaces"]
+    assert set(got) == {"wall"}, got  # the panel is behind the wall
+    wall = got["wall"]
+    # the brightest patch lies within a patch of the foot point: E falls as cos³, < 0.3 %
+    assert wall["max_luminance_cdm2"] == pytest.approx(L_FOOT, rel=4e-3)
+    assert wall["mean_luminance_cdm2"] < wall["max_luminance_cdm2"]
+    assert wall["limit_cdm2"] == pytest.approx(0.9 * L_FOOT) and wall["meets"] is False
+
+
+def test_surface_luminance_follows_the_dimmer_and_differentiates(lit):
+    g = lit.glare
+    radiosity = jnp.asarray(g.radiosity)
+
+    def brightest(alpha):
+        return g.surfaces.maximum(alpha @ radiosity)[0, 0]
+
+    alpha = jnp.asarray([0.4])
+    assert float(brightest(alpha)) == pytest.approx(0.4 * L_FOOT, rel=4e-3)
+    assert float(jax.grad(brightest)(alpha)[0]) == pytest.approx(L_FOOT, rel=4e-3)
+    half = lit.at(lit.design.replace(dimmers=[0.5])).glare.to_dict()["eye"]["surfaces"]["wall"]
+    assert half["max_luminance_cdm2"] == pytest.approx(0.5 * L_FOOT, rel=4e-3)
+    assert half["meets"] is True
+
+
+def test_the_limit_is_a_hard_constraint_linear_in_the_dimmer(lit):
+    g = lit.glare
+    (c,) = surface_constraints(g.surfaces)
+    assert c.key == "observers[0].max_luminance_cdm2.wall"
+    b = jnp.asarray(0.5 * np.asarray(g.radiosity)[0])
+    light = DesignLight(e=jnp.zeros(0), b=b, alpha=jnp.asarray([0.5]), x=jnp.asarray([0.5]))
+    assert float(c.value(light, None)) == pytest.approx(0.5 * L_FOOT, rel=4e-3)
+    assert float(c.margin(light, None)) > 0  # 0.5 L ≤ 0.9 L
+    assert float(c.value(light, 1e-3)) >= float(c.value(light, None))  # conservative
+    with pytest.raises(ConfigError, match="no named surface 'roof'"):
+        surface_constraints(g.surfaces, surface="roof", bound=10.0, key="optimise.constraints[0]")
+    with pytest.raises(ConfigError, match="sees no part of surface 'panel'|no named surface"):
+        surface_constraints(g.surfaces, surface="panel", observer="eye", bound=10.0)
+
+
+def test_unknown_surface_in_a_limit_names_the_key(tmp_path):
+    text = _text(10.0).replace('max_luminance_cdm2 = { wall = 10.0 }',
+                               'max_luminance_cdm2 = { roof = 10.0 }')
+    assert "roof" in text
+    (tmp_path / "s.toml").write_text(text)
+    with pytest.raises(ConfigError, match="no \\[\\[geometry\\]\\] item is named 'roof'") as e:
+        lumijax.load_study(tmp_path / "s.toml")
+    assert "observers[0].max_luminance_cdm2.roof" in str(e.value)
