@@ -3,7 +3,7 @@
     python benchmarks/compliance.py --study courtyard  # configs/courtyard.toml, full scale
     python benchmarks/compliance.py --study building   # a ≈10⁵-patch office building
     python benchmarks/compliance.py --study demo       # the bundled courtyard demo
-    python benchmarks/compliance.py --quick            # a 2-room building (a smoke check)
+    python benchmarks/compliance.py --quick            # a 1-room building (a smoke check)
 
 Each study gets a ``[compliance]`` table of every kind: EN 12464-1 task areas with their
 surroundings, cylindrical sensors, modelling and UGR observers (the building,
@@ -181,9 +181,9 @@ def studies(which: str, tmp: Path, quick: bool, floors: int, rooms: int) -> list
     out = []
     if quick:
         p = tmp / "building.toml"
-        p.write_text(building_toml(1, 2, target_patches=800, operator_patches=300,
-                                   gather_rays=32))
-        return [("office building, 1 × 2 rooms (quick)", p)]
+        p.write_text(building_toml(1, 1, target_patches=400, operator_patches=150,
+                                   gather_rays=16))
+        return [("office building, 1 room (quick)", p)]
     if which in ("demo", "all"):
         src = REPO / "lumijax" / "data" / "studies" / "default" / "study.toml"
         p = src.parent / f"_compliance_benchmark_{tmp.name}.toml"  # beside its meshes
@@ -204,7 +204,7 @@ def studies(which: str, tmp: Path, quick: bool, floors: int, rooms: int) -> list
 def main(argv: list[str] | None = None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--study", choices=["demo", "courtyard", "building", "all"], default="all")
-    ap.add_argument("--quick", action="store_true", help="a 2-room building only (smoke check)")
+    ap.add_argument("--quick", action="store_true", help="a 1-room building only (smoke check)")
     ap.add_argument("--floors", type=int, default=4)
     ap.add_argument("--rooms", type=int, default=12, help="rooms per floor")
     args = ap.parse_args(argv)
