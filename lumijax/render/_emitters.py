@@ -14,6 +14,7 @@ Area sources are Lambertian rectangles of luminance M/π, dark from behind.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import equinox as eqx
@@ -103,10 +104,6 @@ class Emitters(eqx.Module):
     def xyz(self, owner: np.ndarray, to_eye: np.ndarray, dimmers) -> Float[np.ndarray, "n 3"]:
         """XYZ (Y: luminance in cd/m²) of sources ``owner`` toward unit world directions
         ``to_eye`` (source → eye), at the networks' ``dimmers``."""
-        import jax.numpy as jnp
-
-        from ..glare import projected_area
-
         alpha = np.asarray(dimmers, np.float64)
         out = np.zeros((len(owner), 3))
         for g in self.groups:
@@ -115,10 +112,8 @@ class Emitters(eqx.Module):
                 continue
             i = owner[sel] - g.offset
             local = np.einsum("nji,nj->ni", g.rotation[i], to_eye[sel])  # Rᵀ w
-            cd = np.asarray(g.distribution.intensity(jnp.asarray(local)), np.float64)
-            area = np.asarray(projected_area(g.opening, jnp.asarray(local)), np.float64)
-            lum = cd * g.scale[i] * alpha[g.network[i]] / area
-            out[sel] = lum[:, None] * g.colour[i]
+            per_cd = _per_candela(g.distribution, g.opening, local)
+            out[sel] = (per_cd * g.scale[i] * alpha[g.network[i]])[:, None] * g.colour[i]
         sel = np.flatnonzero(owner >= self.n_luminaires)
         if len(sel):
             a = owner[sel] - self.n_luminaires
@@ -128,6 +123,43 @@ class Emitters(eqx.Module):
         return out
 
 
+#: Rays per evaluation of a photometry toward the eye: every batch is padded to (or cut at)
+#: this size, so JAX compiles one shape per photometry, not one per batch.
+_BATCH = 1 << 16
+
+
+@functools.cache
+def _luminance_fn():
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    from ..glare import projected_area
+
+    @eqx.filter_jit
+    def per_candela(distribution, opening, local):
+        """I(ω)/A_p(ω) (cd/m² per unit scale) toward local directions."""
+        return distribution.intensity(local) / projected_area(opening, local)
+
+    return per_candela, jnp
+
+
+def _per_candela(distribution, opening, local: np.ndarray) -> np.ndarray:
+    """Luminance (cd/m²) of an opening toward ``local`` directions, per unit candela scale:
+    the photometry's intensity over glare's projected area."""
+    fn, jnp = _luminance_fn()
+    out = np.empty(len(local))
+    for s in range(0, len(local), _BATCH):
+        part = local[s:s + _BATCH]
+        n = len(part)
+        pad = np.zeros((_BATCH, 3))
+        pad[:, 2] = -1.0  # straight down: a harmless direction for the padding
+        pad[:n] = part
+        out[s:s + n] = np.asarray(fn(distribution, opening, jnp.asarray(pad)),
+                                  np.float64)[:n]
+    return out
+
+
+@functools.lru_cache(maxsize=256)
 def _colour(spectrum) -> np.ndarray:
     if spectrum is None:
         return _D65
