@@ -141,3 +141,34 @@ material = "m"
                    group=np.full(2, -1), source_triangle=np.zeros(2, int))
     np.testing.assert_allclose(sky_fraction(down, sc.raycaster, rays=4096), [0.0, 0.5],
                                atol=0.01)
+
+
+@pytest.mark.parametrize(("old", "new", "key", "words"), [
+    ('reflected_ulr = "judge"', 'reflected_ulr = "maybe"', "compliance.obtrusive.reflected_ulr",
+     "'report', 'judge' or 'off'"),
+    ('reflected_ulr = "judge"', "ulr_max = 1.5", "compliance.obtrusive.ulr_max",
+     "less than or equal to 1"),
+])
+def test_bad_reflected_ulr_input(old, new, key, words):
+    from lumijax.errors import ConfigError
+
+    with pytest.raises(ConfigError) as e:
+        parse_config(PLANE.replace(old, new), source="plane.toml")
+    assert e.value.key == key, e.value
+    assert words in e.value.message, e.value.message
+    assert e.value.line is not None
+
+
+def test_ulr_max_replaces_the_zone_limit(plane):
+    from lumijax.compliance import Compliance, compliance_model
+
+    study, res = plane
+    comp = study.config.compliance
+    ob = comp.obtrusive.model_copy(update={"ulr_max": 0.6})
+    cfg = study.config.model_copy(update={"compliance": comp.model_copy(update={"obtrusive": ob})})
+    rows = Compliance.judge(compliance_model(dataclasses.replace(study, config=cfg), res),
+                            res.design.dimmers).rows
+    ulr = {r["quantity"]: r for r in rows if r["quantity"].startswith("ULR")}
+    assert ulr["ULR"]["limit"] == ulr["ULR incl. reflected"]["limit"] == 0.6
+    assert ulr["ULR"]["source"] == "given"
+    assert ulr["ULR incl. reflected"]["status"] == "pass"  # 0.583 ≤ 0.6
