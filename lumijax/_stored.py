@@ -82,6 +82,9 @@ def _keyed(value: Any, h) -> Any:
         if value.is_file():
             h.update(str(value).encode() + b"\0" + value.read_bytes())
         return str(value)
+    if isinstance(value, np.ndarray):  # its bytes: numpy's repr elides long arrays
+        a = np.ascontiguousarray(value)
+        return [a.dtype.str, list(a.shape), hashlib.sha256(a.tobytes()).hexdigest()]
     if isinstance(value, float | int | str | bool) or value is None:
         return value
     return repr(value)
