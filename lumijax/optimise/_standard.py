@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ConfigError
-from ._constrained import DesignProblem, solve_constrained
+from ._constrained import DesignProblem, _f_grad, exact_values, solve_constrained
 from ._constraints import (
     DesignLight,
     GridAverage,
@@ -322,8 +322,8 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
         scale = 1.0
     problem = DesignProblem(model, objective, constraints, objective_scale=scale)
     x_start = jnp.asarray(params.x0)
-    start_values = np.asarray(problem.values(x_start), np.float64)
-    start_objective = float(problem.f(x_start)) * scale
+    start_values = np.asarray(exact_values(problem, x_start), np.float64)
+    start_objective = float(_f_grad(problem, x_start)[0]) * scale
     tol, eps = ocfg.constraint_tolerance, ocfg.smoothing
 
     runs = []

@@ -50,10 +50,11 @@ print(json.dumps({"path": None if path is None else str(path), "value": value,
 EXPECTED = float(np.sum(np.cos(np.arange(10.0)) * 2.0 + 1.0))
 
 
-def run(env_value: str) -> dict:
+def run(env_value: str, program: str = PROGRAM) -> dict:
     env = dict(os.environ, LUMIJAX_JAX_CACHE=env_value, JAX_PLATFORMS="cpu")
     env.pop("JAX_COMPILATION_CACHE_DIR", None)
-    proc = subprocess.run([sys.executable, "-c", PROGRAM], capture_output=True, text=True,
+    env.pop("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", None)
+    proc = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
                           env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -144,6 +145,18 @@ def test_a_new_process_reuses_the_cache_and_recompiles_a_corrupted_one(tmp_path)
     third = run(str(root))
     assert third["hits"] == 0 and third["misses"] >= 1
     assert any("ignored and recompiled" in w for w in third["warnings"])
+
+
+def test_even_a_kernel_that_compiles_in_milliseconds_is_kept(tmp_path):
+    # JAX's threshold left as lumijax sets it: a warm small study compiled ~76 such kernels
+    # (3 s of its 7 s of XLA time) when only those over 0.1 s were kept
+    program = PROGRAM.replace('jax.config.update("jax_persistent_cache_min_compile_time_secs", '
+                              '0.0)\n', "")
+    assert program != PROGRAM
+    root = tmp_path / "cache"
+    assert run(str(root), program)["misses"] >= 1
+    second = run(str(root), program)
+    assert second["hits"] >= 1 and second["misses"] == 0
 
 
 def test_an_unwritable_folder_runs_without_a_cache(tmp_path):
