@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import equinox as eqx
 import numpy as np
-from jaxtyping import Float
+from jaxtyping import Bool, Float
 
 from ._cameras import AbstractCamera
 
@@ -18,10 +18,12 @@ SOURCE_FACTOR = 5.0
 
 class LuminanceImage(eqx.Module):
     """``xyz`` (H, W, 3): CIE 1931 XYZ per pixel, Y in cd/m²; ``camera`` the view it was
-    traced from."""
+    traced from; ``hit`` (H, W) whether the pixel's ray met a surface or a source (False:
+    the sky, or outside a fisheye's circle)."""
 
     xyz: Float[np.ndarray, "h w 3"]
     camera: AbstractCamera
+    hit: Bool[np.ndarray, "h w"] | None = None
 
     @property
     def luminance(self) -> Float[np.ndarray, "h w"]:

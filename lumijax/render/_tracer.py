@@ -16,8 +16,9 @@ the Ward BRDF over that density gives). Clear glass passes the ray on unchanged,
 side its radiosity does not face shows its other side's radiosity (the coincident
 back-to-back triangle of a two-sided surface), and only that: it scatters what passes.
 
-Back faces of opaque surfaces are passed through (rays continue behind them), as the raster
-views cull them: a room seen from outside opens like a doll's house. Rays are traced in tiles
+Back faces of opaque surfaces are passed through (rays continue behind them) unless a
+coincident triangle faces the other way (the other side of a two-sided surface, which is then
+what is hit), as the raster views cull them: a room seen from outside opens like a doll's house. Rays are traced in tiles
 (``tile_rays`` at a time) so that memory stays flat at any image size.
 """
 
@@ -145,7 +146,11 @@ class Tracer:
             hit = t_hit >= 0
             back = np.zeros(len(todo), bool)
             back[hit] = np.einsum("ij,ij->i", self.normals[t_hit[hit]], d[todo[hit]]) >= 0
-            through = hit & back & ~two_sided[np.maximum(t_hit, 0)]
+            # a back face with a coincident front-facing twin is that twin (whichever of
+            # the two Embree reports); opaque backs without one are passed
+            twin = self._twin[np.maximum(t_hit, 0)]
+            t_hit = np.where(hit & back & (twin >= 0), twin, t_hit)
+            through = hit & back & (twin < 0) & ~two_sided[np.maximum(t_hit, 0)]
             keep = ~through
             tri[todo[keep]] = t_hit[keep]
             dist[todo[keep]] = np.where(hit[keep], travelled[todo[keep]] + t[keep], np.inf)
@@ -179,6 +184,10 @@ class Tracer:
     def radiance(self, origins, directions, dimmers) -> Float[np.ndarray, "n 3"]:
         """XYZ (Y: luminance in cd/m²) arriving at ``origins`` (m) from unit ``directions``,
         at the networks' ``dimmers``."""
+        return self._radiance(origins, directions, dimmers)[0]
+
+    def _radiance(self, origins, directions, dimmers):
+        """``(XYZ, whether the first ray met anything)``."""
         o = np.asarray(origins, np.float64)
         d = np.asarray(directions, np.float64)
         o = np.broadcast_to(o, d.shape).copy()
@@ -186,6 +195,8 @@ class Tracer:
         alpha = np.asarray(dimmers, np.float64)
         vxyz = np.einsum("k,kvc->vc", alpha, self.vertex_xyz)
         out = np.zeros((len(d), 3))
+        met = np.zeros(len(d), bool)
+        lit = met
         pix = np.arange(len(d))
         weight = np.ones((len(d), 3))
         opt = self.optics
@@ -203,6 +214,8 @@ class Tracer:
                         own, -d[lit], alpha))
                 tri = np.where(lit, -1, tri)
             hit = tri >= 0
+            if level == 0:
+                met = hit | lit
             o, d, pix, weight, tri, t_s = (a[hit] for a in (o, d, pix, weight, tri, t_s))
             if not len(d):
                 break
@@ -238,7 +251,7 @@ class Tracer:
             o, d, weight, pix = (np.concatenate(x) for x in zip(*kids, strict=True))
             live = np.any(weight > 0, axis=1)
             o, d, weight, pix = o[live], d[live], weight[live], pix[live]
-        return out
+        return out, met
 
     def _specular(self, p, d, n, w, alpha, pix):
         """Children of specular hits: origins, directions, weights, pixels."""
@@ -282,16 +295,17 @@ class Tracer:
         w, h = camera.size
         rows = max(1, self.tile_rays // max(w, 1))
         xyz = np.zeros((h * w, 3))
+        met = np.zeros(h * w, bool)
         t0 = time.perf_counter()
         origin = np.asarray(camera.position, np.float64)
         for r0 in range(0, h, rows):
             sl = slice(r0, min(h, r0 + rows))
             d, ok = camera.rays(sl)
             at = np.flatnonzero(ok) + r0 * w
-            xyz[at] = self.radiance(origin, d[ok], dimmers)
+            xyz[at], met[at] = self._radiance(origin, d[ok], dimmers)
             self.stats.primary += int(ok.sum())
         self.stats.seconds += time.perf_counter() - t0
-        return LuminanceImage(xyz=xyz.reshape(h, w, 3), camera=camera)
+        return LuminanceImage(xyz=xyz.reshape(h, w, 3), camera=camera, hit=met.reshape(h, w))
 
 
 def _twins(tri: np.ndarray, normals: np.ndarray) -> np.ndarray:

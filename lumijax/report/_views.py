@@ -240,9 +240,12 @@ def render_realistic(surface, cam: Camera, dimmers, scene=None, *, ev: float | N
             surface, dimmers, cam)
     if scene is not None and surface.material is not None and _traced(scene):
         # specular or clear surfaces: the ray-traced second pass (lumijax.render)
-        xyz = traced_xyz(surface, scene, cam, dimmers)
-        rgb = tone_map(xyz.reshape(-1, 3), ev, tone or cam.tone).reshape(xyz.shape)
-        return np.round(np.clip(rgb, 0, 1) * 255.0).astype(np.uint8), float(ev)
+        image = traced_image(surface, scene, cam, dimmers)
+        rgb = tone_map(image.xyz.reshape(-1, 3), ev, tone or cam.tone).reshape(image.xyz.shape)
+        out = np.round(np.clip(rgb, 0, 1) * 255.0).astype(np.uint8)
+        sky = np.array([int(BACKGROUND[i:i + 2], 16) for i in (1, 3, 5)], np.uint8)
+        out[~image.hit] = sky  # the raster's background where a ray meets nothing
+        return out, float(ev)
     mesh = surface.polydata()
     mesh.point_data["rgb"] = view_colours(surface, dimmers, ev, tone or cam.tone)
     pl = _plotter(cam.size)
@@ -273,15 +276,20 @@ def _tracer(surface, scene):
     return Tracer.for_scene(scene, surface)
 
 
-def traced_xyz(surface, scene, cam: Camera, dimmers) -> np.ndarray:
-    """CIE XYZ (H, W, 3; Y in cd/m²) of a perspective camera's view traced through ``scene``
-    (:class:`lumijax.render.Tracer`, depth 2): specular reflections, clear glass and the
-    luminaires at their luminance included."""
+def traced_image(surface, scene, cam: Camera, dimmers):
+    """The :class:`lumijax.render.LuminanceImage` of a perspective camera's view traced
+    through ``scene`` (:class:`lumijax.render.Tracer`, depth 2): specular reflections, clear
+    glass and the luminaires at their luminance included."""
     from ..render import Perspective
 
     view = Perspective(position=tuple(cam.position), target=tuple(cam.target),
                        up=tuple(cam.up), size=tuple(cam.size), fov_deg=float(cam.fov_deg))
-    return _tracer(surface, scene).render(view, dimmers).xyz
+    return _tracer(surface, scene).render(view, dimmers)
+
+
+def traced_xyz(surface, scene, cam: Camera, dimmers) -> np.ndarray:
+    """CIE XYZ (H, W, 3; Y in cd/m²) of :func:`traced_image`."""
+    return traced_image(surface, scene, cam, dimmers).xyz
 
 
 def _range(values: np.ndarray, scale: str) -> tuple[float, float]:

@@ -202,3 +202,42 @@ def test_room_through_a_window_is_the_room_times_tau():
     # (hit points are Embree's float32: the two paths meet the wall a few µm apart)
     assert np.allclose(b, a * factor, rtol=1e-5)
     assert factor.min() < 0.985 * factor.max()  # the view spans angles where τ(θ) differs
+
+
+def test_two_sided_diffuser_shows_each_side_and_opaque_backs_are_passed():
+    """A diffusely transmitting panel modelled as two back-to-back triangle layers shows, from
+    each side, the radiosity of the side facing the eye; an opaque wall seen from behind is
+    passed through (the raster's culled back faces), so the wall behind it shows."""
+    front = _grid((-3.0, 2.0, -1.0), (6.0, 0.0, 0.0), (0.0, 0.0, 4.0), n=1)  # facing −y
+    back = (front[0], front[1][:, [0, 2, 1]])  # the same triangles facing +y
+    far = _grid((-30.0, 9.0, -30.0), (60.0, 0.0, 0.0), (0.0, 0.0, 60.0), n=1)  # facing −y
+    pts, faces = _merge(front, back, far)
+    n = _normals(pts, faces)
+    sizes = [len(front[0]), len(back[0]), len(far[0])]
+    lum = np.repeat([5.0, 2.0, 0.7], sizes)
+    material = np.repeat([1, 1, 0], [len(front[1]), len(back[1]), len(far[1])])
+    optics = Optics.lambertian(2)
+    optics.transmittance[1] = 0.4
+    optics.tau[1] = 0.4
+    optics.diffuse[1] = True
+    tracer = Tracer(pts, faces, n, _grey(lum[None]), material, optics)
+    ahead = dict(target=(0.0, 2.0, 1.0), size=(16, 12), fov_deg=20.0)
+    assert np.allclose(tracer.render(Perspective(position=(0.0, -3.0, 1.0), **ahead),
+                                     [1.0]).luminance, 5.0)
+    assert np.allclose(tracer.render(Perspective(position=(0.0, 6.0, 1.0), **ahead),
+                                     [1.0]).luminance, 2.0)
+    # opaque, one layer, and a wall at y = −5 facing it (+y): a back face is passed, as the
+    # raster culls it
+    one = (front[0], front[1])
+    near = _grid((-30.0, -5.0, -30.0), (0.0, 0.0, 60.0), (60.0, 0.0, 0.0), n=1)  # facing +y
+    pts1, faces1 = _merge(one, near)
+    n1 = _normals(pts1, faces1)
+    assert np.allclose(n1[len(one[1]):], [0.0, 1.0, 0.0])
+    lum1 = np.repeat([5.0, 3.0], [len(one[0]), len(near[0])])
+    opaque = Tracer(pts1, faces1, n1, _grey(lum1[None]), np.zeros(len(faces1), int),
+                    Optics.lambertian(1))
+    back_view = Perspective(position=(0.0, 5.0, 1.0), target=(0.0, -5.0, 1.0), size=(16, 12),
+                            fov_deg=20.0)
+    assert np.allclose(opaque.render(back_view, [1.0]).luminance, 3.0)  # panel's back passed
+    outside = Perspective(position=(0.0, -8.0, 1.0), **ahead)  # behind the near wall
+    assert np.allclose(opaque.render(outside, [1.0]).luminance, 5.0)
