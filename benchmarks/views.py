@@ -57,6 +57,7 @@ def main() -> None:
     ap.add_argument("--depth", type=int, default=2)
     ap.add_argument("--rough", type=float, default=0.002, help="Ward α of the paving")
     ap.add_argument("--small", action="store_true", help="480 x 270 (a smoke test)")
+    ap.add_argument("--png", help="also write the view, tone-mapped (metered EV), to this file")
     args = ap.parse_args()
     size = (480, 270) if args.small else tuple(args.size)
 
@@ -102,6 +103,13 @@ def main() -> None:
     t_raw = time.perf_counter() - t0
 
     lum_img = image.luminance
+    if args.png:
+        from lumijax.report._tonemap import auto_ev100, tone_map
+        from lumijax.report._views import write_png
+
+        ev = auto_ev100(lum_img[lum_img > 0], np.ones(int((lum_img > 0).sum())))
+        rgb = tone_map(image.xyz.reshape(-1, 3), ev).reshape(image.xyz.shape)
+        write_png(np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8), args.png)
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     print(f"study         {Path(args.study).name}: {len(tri)} triangles, "
           f"{len(scene.luminaires)} luminaires ({len(tracer.emitters.triangles)} proxy "
