@@ -30,6 +30,10 @@ class Glare:
     ``surfaces`` (a :class:`~lumijax.glare.SeenSurfaces`, None without patches or named
     surfaces) with ``radiosity`` (``(networks, patches)`` lm/m² at dimmer 1) give the
     luminance of the named surfaces each observer sees, at the design's dimmers.
+
+    Where ``at`` changes only the dimmers, the new record rates by superposition
+    (``GlareModel.at_aims``: each network's terms at dimmer 1 summed once, ~0.3 ms for the
+    courtyard's 800 views × 3,000 luminaires where the full model takes ~50 ms), exact.
     """
 
     model: GlareModel
@@ -37,16 +41,40 @@ class Glare:
     observers: tuple = ()
     surfaces: SeenSurfaces | None = None
     radiosity: np.ndarray | None = None
+    #: ``(DimmerGlare, per-source UGR terms, veiling terms, source network)`` at dimmer 1 and
+    #: this record's aims and levels, shared by the records ``at`` makes at other dimmers
+    unit: tuple | None = None
 
     def at(self, design) -> Glare:
-        return dataclasses.replace(self, design=design)
+        """The same observers at ``design`` (exact: by superposition when only the dimmers
+        differ from this record's design, else through the full model)."""
+        if self.design.only_dimmers_differ(design):
+            return dataclasses.replace(self, design=design, unit=self._unit)
+        return dataclasses.replace(self, design=design, unit=None)
+
+    @cached_property
+    def _unit(self) -> tuple:
+        if self.unit is not None:
+            return self.unit
+        ones = self.design.replace(dimmers=np.ones(len(self.design.networks)))
+        u, v = self.model.contributions(ones)
+        return (self.model.at_aims(self.design), np.asarray(u, np.float64),
+                np.asarray(v, np.float64), np.asarray(self.model._source_network()))
 
     @cached_property
     def ratings(self) -> GlareRatings:
-        return GlareRatings(*(np.asarray(a, np.float64) for a in self.model(self.design)))
+        if self.unit is not None:
+            rated = self.unit[0](np.asarray(self.design.dimmers, np.float64))
+        else:
+            rated = self.model(self.design)
+        return GlareRatings(*(np.asarray(a, np.float64) for a in rated))
 
     @cached_property
     def _contributions(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.unit is not None:  # L² ω / p² scales with α², the veiling luminance with α
+            _, u, v, net = self.unit
+            a = np.asarray(self.design.dimmers, np.float64)[net]
+            return u * (a * a)[None], v * a[None]
         u, v = self.model.contributions(self.design)
         return np.asarray(u, np.float64), np.asarray(v, np.float64)
 

@@ -22,7 +22,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..design import DesignParameters
-from ..glare import GlareModel, worst_ratings
+from ..glare import DimmerGlare, GlareModel, worst_ratings
 from ._constraints import AbstractConstraint, DesignLight, Smooth, soft_max
 
 __all__ = ["GlareConstraint", "GLARE_UNITS"]
@@ -47,8 +47,18 @@ class GlareConstraint(AbstractConstraint):
     observer: int = eqx.field(static=True)
     views: tuple[int, ...] = eqx.field(static=True)
     ref: float = eqx.field(static=True)
+    #: With only the dimmers free: the model's terms at the start's aims and levels summed per
+    #: network once (``GlareModel.at_aims``), so a proposal costs a (views × networks) product
+    superposed: DimmerGlare | None = None
 
     def value(self, light: DesignLight, smooth: Smooth) -> Float[Array, ""]:
+        if self.superposed is not None:
+            rated = getattr(self.superposed.ratings(jnp.asarray(light.alpha)), self.rating)
+            if smooth is None:
+                return self.model.worst(rated)[self.observer]
+            r = rated[np.asarray(self.views)]
+            ref = self.scale
+            return ref * soft_max(r / ref, smooth)
         design = self.params.unflatten(jnp.asarray(light.x))
         if smooth is None:
             return worst_ratings(self.model, design)[self.rating][self.observer]

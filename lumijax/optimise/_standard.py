@@ -185,6 +185,9 @@ def _glare_constraints(cc, key, glare, params, cfg):
         raise ConfigError("no observer has a road (road_grid or road_luminance_cdm2): TI is "
                           "not rated", file=cfg.source, key=f"{key}.criterion")
     view_obs = np.asarray(glare.view_observer)
+    # dimmers only: rate by superposition at the start's aims and levels (exact, ~0.3 ms)
+    superposed = None if params is None or params.aims or params.levels else glare.at_aims(
+        params.start)
     out = []
     for obs in names:
         i = glare.observers.index(obs)
@@ -193,7 +196,7 @@ def _glare_constraints(cc, key, glare, params, cfg):
             unit=GLARE_UNITS[cc.criterion], sense=-1, bound=jnp.asarray(float(cc.max)),
             model=glare, params=params, rating=cc.criterion, observer=i,
             views=tuple(int(v) for v in np.flatnonzero(view_obs == i)),
-            ref=reference(cc.max)))
+            ref=reference(cc.max), superposed=superposed))
     return out
 
 
@@ -201,6 +204,7 @@ def _at_results(c, after):
     """A glare constraint checked on the glare of the final results (their background lit at
     the final aims, when the design re-aims: the solver's model keeps the start's)."""
     if isinstance(c, GlareConstraint) and after.glare is not None:
+        c = dataclasses.replace(c, superposed=None)  # the final check: the full model
         return eqx.tree_at(lambda g: g.model, c, after.glare.model)
     return c
 
