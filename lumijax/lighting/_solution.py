@@ -334,6 +334,7 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     h = np.stack([w[1] for w in weights])  # (src, 3, W)
     dtype = _dtype(sol)
     b, res = solve_spectral(sol.transport, sp.rho, patch_direct, s, dtype,  # (P, src, W)
+                            transmission=sp.transmission(sol.coarse.patches),
                             solver=sol.solve_method, rtol=sol.solve_tolerance,
                             max_steps=sol.solve_max_steps)
     t1 = time.perf_counter()

@@ -49,10 +49,23 @@ class SpectralSetup:
         The :class:`lumijax.spectral.SpectralSampling` (None for the photometric solve).
     rho
         ``(patches, W)`` reflectance at the sample wavelengths (W = 1 photometric).
+    tau
+        ``(patches, W)`` diffuse transmittance there (opal, frosted: ``kind = "diffuse"``; 0
+        elsewhere, clear glass included), or None when no material transmits diffusely.
     """
 
     sampling: SpectralSampling | None
     rho: Float[np.ndarray, "patches w"]
+    tau: Float[np.ndarray, "patches w"] | None = None
+
+    def transmission(self, patches) -> tuple | None:
+        """``(tau, partner)`` for :func:`solve_spectral` on these patches (None: no diffuse
+        transmission): each transmitting patch's other face (``radiosity.back_partners``)."""
+        if self.tau is None:
+            return None
+        from ..radiosity import back_partners
+
+        return self.tau, back_partners(patches, self.tau.max(axis=1) > 0)
 
     @property
     def n(self) -> int:
@@ -84,9 +97,11 @@ class SpectralSetup:
     @classmethod
     def build(cls, scene, patch_material, samples: int) -> SpectralSetup:
         """Segment the scene's own spectra into ``samples`` wavelengths (0: photometric)."""
+        diffuse = [m.diffuse_transmitting for m in scene.materials]
         if samples == 0:
             rho = np.array([m.luminous_reflectance for m in scene.materials])[patch_material]
-            return cls(None, rho[:, None])
+            tau = np.array([m.tau if d else 0.0 for m, d in zip(scene.materials, diffuse)])
+            return cls(None, rho[:, None], tau[patch_material][:, None] if any(diffuse) else None)
         from ..spectral import segment
 
         emissions = list(dict.fromkeys(
@@ -96,10 +111,14 @@ class SpectralSetup:
                            max_samples=samples)
         wl = np.asarray(sampling.wavelengths_nm)
         table = np.array([np.asarray(m.reflectance.at(wl), np.float64) for m in scene.materials])
-        return cls(sampling, table[patch_material])
+        if not any(diffuse):
+            return cls(sampling, table[patch_material])
+        tau = np.array([np.asarray(m.transmittance.at(wl), np.float64) if d else np.zeros(len(wl))
+                        for m, d in zip(scene.materials, diffuse)])
+        return cls(sampling, table[patch_material], tau[patch_material])
 
 
-def solve_spectral(transport, rho, patch_direct, s, dtype, **solve):
+def solve_spectral(transport, rho, patch_direct, s, dtype, transmission=None, **solve):
     """Spectral radiosity of source groups: ``(B, solution)``.
 
     Parameters
@@ -114,6 +133,10 @@ def solve_spectral(transport, rho, patch_direct, s, dtype, **solve):
         ``(src, W)`` each group's sampled spectrum, scaled to Y = 1 (:meth:`SpectralSetup.weights`).
     dtype
         The solve's precision.
+    transmission
+        ``(tau, partner)`` of :meth:`SpectralSetup.transmission` (None: none): τ ``(patches, W)``
+        couples each diffusely transmitting patch to its other face, in B₀ = ρ E + τ E[partner]
+        and in the operator.
     solve
         Passed on to :func:`lumijax.radiosity.solve_radiosity` (``solver``, ``rtol``,
         ``max_steps``).
@@ -132,6 +155,11 @@ def solve_spectral(transport, rho, patch_direct, s, dtype, **solve):
     rho_j = jnp.asarray(rho, dtype)  # (P, W)
     e = jnp.asarray(np.asarray(patch_direct, np.float64).T[:, :, None], dtype)  # (P, src, 1)
     b0 = rho_j[:, None, :] * e
+    if transmission is not None:
+        tau_j = jnp.asarray(transmission[0], dtype)[:, None, :]
+        partner = np.asarray(transmission[1])
+        b0 = b0 + tau_j * e[partner]
+        solve = dict(solve, transmission=(tau_j, partner))
     res = solve_radiosity(transport, rho_j[:, None, :], b0, **solve)
     b = np.asarray(res.value, np.float64) * s[None]
     lit = jnp.asarray(s != 0)

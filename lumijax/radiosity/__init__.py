@@ -63,3 +63,4 @@ from ._store import (
     read_operator as load_operator,
     write_operator as save_operator,
 )
+from ._transmission import back_partners as back_partners

@@ -37,7 +37,7 @@ __all__ = ["cache_path", "cached_operator", "code_version", "operator_key"]
 _F_MODULES = (
     "radiosity/_build.py", "radiosity/_hierarchy.py", "radiosity/_lowrank.py",
     "radiosity/_operator.py", "radiosity/_partition.py", "radiosity/_store.py",
-    "kernels/_form_factors.py", "scene/_raycast.py",
+    "kernels/_form_factors.py", "scene/_raycast.py", "scene/_glass.py",
 )
 
 

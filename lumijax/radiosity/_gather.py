@@ -110,13 +110,14 @@ def build_gather(
     src_tri = np.asarray(patches.source_triangle)
     tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
     tri_normals[src_tri] = patches.normal
-    rows, cols = [], []
+    rows, cols, carry = [], [], []
     for s in range(0, len(points), chunk):
         p = points[s : s + chunk]
         frames = _frames(np.asarray(normals[s : s + chunk], np.float64), rng)
         dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
         origins = np.repeat(p, rays, axis=0)
-        tri, dist = caster.first_hit(origins, dirs)
+        # clear panes pass the ray on, carrying τ(θ) (docs/materials.md); else ``carried`` is 1
+        tri, dist, carried = caster.first_hit_through(origins, dirs)
         hit = tri >= 0
         # surfaces are one-sided: a ray meeting a patch's back sees no light (it is still blocked)
         hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
@@ -124,11 +125,14 @@ def build_gather(
         patch = _patch_of_hits(tree, src_tri, hit_points, tri[hit])
         rows.append(np.repeat(np.arange(s, s + len(p)), rays)[hit])
         cols.append(patch)
+        carry.append(carried[hit])
     point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)
     patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)
     # merge repeated (point, patch) links: fewer gathers per product
     key = point_idx.astype(np.int64) * patches.n + patch_idx
-    uniq, counts = np.unique(key, return_counts=True)
+    uniq, inverse = np.unique(key, return_inverse=True)
+    counts = np.bincount(inverse.ravel(), weights=np.concatenate(carry) if carry else None,
+                         minlength=len(uniq))
     return GatherOperator(
         n_points=len(points),
         n_patches=patches.n,
@@ -204,13 +208,13 @@ def build_sensor_gather(
         live = weight > 0
         origins = np.repeat(p, rays, axis=0)[live]
         dirs, receiver, weight = dirs[live], receiver[live], weight[live]
-        tri, dist = caster.first_hit(origins, dirs)
+        tri, dist, carried = caster.first_hit_through(origins, dirs)  # τ(θ) of clear panes
         hit = tri >= 0
         hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
         hit_points = origins[hit] + dirs[hit] * dist[hit, None]
         rows.append(receiver[hit])
         cols.append(_patch_of_hits(tree, src_tri, hit_points, tri[hit]))
-        wts.append(weight[hit])
+        wts.append(weight[hit] * carried[hit])
     point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)
     patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)
     weight = np.concatenate(wts) if wts else np.zeros(0)

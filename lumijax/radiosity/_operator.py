@@ -286,26 +286,42 @@ class ReflectionOperator(lx.AbstractLinearOperator):
 
     ``rho`` is dimensionless reflectance, broadcastable against ``(P, ...)`` (a ``(P,)`` array
     applies to every column). ``transpose()`` gives ``Kᵀ x = Fᵀ (ρ ⊙ x)``.
+
+    With diffuse transmission (``tau``, shaped like ``rho``, and ``partner``, ``(P,)`` patch
+    indices: ``_transmission.py``) ``K x = ρ ⊙ (F x) + τ ⊙ (F x)[partner]`` and
+    ``Kᵀ x = Fᵀ (ρ ⊙ x + Σ_{i: partner[i] = j} τ_i x_i)``.
     """
 
     transport: TransportOperator
     rho: Float[Array, "patches ..."]
     structure: jax.ShapeDtypeStruct = eqx.field(static=True)
     transposed: bool = eqx.field(static=True, default=False)
+    tau: Float[Array, "patches ..."] | None = None
+    partner: Array | None = None
 
-    def __init__(self, transport, rho, structure, transposed=False):
+    def __init__(self, transport, rho, structure, transposed=False, tau=None, partner=None):
         self.transport = transport
+        shape = (-1,) + (1,) * (len(structure.shape) - 1)
         rho = jnp.asarray(rho, structure.dtype)
-        if rho.ndim == 1:
-            rho = rho.reshape((-1,) + (1,) * (len(structure.shape) - 1))
-        self.rho = rho
+        self.rho = rho.reshape(shape) if rho.ndim == 1 else rho
+        if tau is not None:
+            tau = jnp.asarray(tau, structure.dtype)
+            tau = tau.reshape(shape) if tau.ndim == 1 else tau
+            partner = jnp.asarray(partner, jnp.int32)
+        self.tau, self.partner = tau, partner
         self.structure = structure
         self.transposed = transposed
 
     def mv(self, vector):
         if self.transposed:
-            return self.transport.rmatmul(self.rho * vector)
-        return self.rho * self.transport.matmul(vector)
+            x = self.rho * vector
+            if self.tau is not None:
+                x = x.at[self.partner].add(self.tau * vector)
+            return self.transport.rmatmul(x)
+        y = self.transport.matmul(vector)
+        if self.tau is not None:
+            return self.rho * y + self.tau * y[self.partner]
+        return self.rho * y
 
     def as_matrix(self):
         n = int(np.prod(self.structure.shape))
@@ -314,7 +330,8 @@ class ReflectionOperator(lx.AbstractLinearOperator):
         return cols.reshape(n, n).T
 
     def transpose(self):
-        return ReflectionOperator(self.transport, self.rho, self.structure, not self.transposed)
+        return ReflectionOperator(self.transport, self.rho, self.structure, not self.transposed,
+                                  self.tau, self.partner)
 
     def in_structure(self):
         return self.structure

@@ -178,6 +178,7 @@ def solve_radiosity(
     max_steps: int = 1000,
     correct_rows: bool = True,
     throw: bool = True,
+    transmission: tuple | None = None,
 ) -> RadiositySolution:
     """Solve ``(I − ρF) B = B₀`` for all columns of ``B₀`` at once.
 
@@ -207,6 +208,11 @@ def solve_radiosity(
     throw
         Raise :class:`SolveError` if the tolerance is not met; otherwise report it in
         ``result``.
+    transmission
+        ``(tau, partner)`` for diffusely transmitting patches (``_transmission.py``): τ shaped
+        like ``rho`` (0 where nothing is transmitted) and ``(P,)`` the other side's patch; the
+        solve is then ``(I − ρF − τ P F) B = B₀``, with ``B₀ = ρ E + τ E[partner]`` the
+        caller's. None: no transmission (the solve as above, bit for bit).
     """
     solver = radiosity_solver(method if method is not None else solver)
     check_reflectance(transport, rho)
@@ -220,18 +226,25 @@ def solve_radiosity(
     if rtol is None:
         rtol = 1e-9 if b0.dtype == jnp.float64 else 1e-4
     rho = jnp.asarray(rho)
-    columns = distinct_columns(rho, b0)
+    tau, partner = (None, None) if transmission is None else (
+        jnp.asarray(transmission[0]), jnp.asarray(transmission[1], jnp.int32))
+    # columns equal in ρ and B₀ but not in τ are not one column: τ joins the comparison
+    columns = distinct_columns(rho, b0) if tau is None else distinct_columns(
+        jnp.concatenate([_flat_columns(rho, b0), _flat_columns(tau, b0)]),
+        jnp.concatenate([b0, b0]).reshape(2 * b0.shape[0], -1))
     if columns is None:  # traced: every column
         b, iterations, residual, result, escaped, stats = _solve(
-            transport, rho, b0, solver, float(rtol), int(max_steps), bool(correct_rows))
+            transport, rho, b0, solver, float(rtol), int(max_steps), bool(correct_rows),
+            tau, partner)
         stats = dict(stats, columns_solved=int(np.prod(b0.shape[1:], dtype=int)))
     else:
         first, inverse = columns
         n = b0.shape[0]
         rho_u = _flat_columns(rho, b0)[:, first]
+        tau_u = None if tau is None else _flat_columns(tau, b0)[:, first]
         b_u, iterations, residual, result, escaped_u, stats = _solve(
             transport, rho_u, b0.reshape(n, -1)[:, first], solver, float(rtol),
-            int(max_steps), bool(correct_rows))
+            int(max_steps), bool(correct_rows), tau_u, partner)
         b = b_u[:, inverse].reshape(b0.shape)
         escaped = escaped_u[inverse].reshape(b0.shape[1:])
         stats = dict(stats, created=stats["created"][inverse].reshape(b0.shape[1:]),
@@ -280,7 +293,7 @@ def distinct_columns(rho, b0) -> tuple[np.ndarray, np.ndarray] | None:
 
 
 @eqx.filter_jit
-def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows):
+def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, partner=None):
     """The traced part of :func:`solve_radiosity` (compiled once per shape and solver)."""
     rows = transport.row_sums()
     shape = (-1,) + (1,) * (b0.ndim - 1)
@@ -296,7 +309,10 @@ def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows):
     scale = jax.lax.stop_gradient(column_max(b0c))
     scale = jnp.where(scale > 0, scale, 1.0)
     struct = jax.ShapeDtypeStruct(b0.shape, b0.dtype)
-    op = ReflectionOperator(transport, rho_c, struct)
+    if tau is not None:  # y = c B: row i of the transmitted term scales by c_i as ρ_i does
+        tau = jnp.asarray(tau, b0.dtype)
+        tau = (tau.reshape(shape) if tau.ndim == 1 else tau) * c
+    op = ReflectionOperator(transport, rho_c, struct, tau=tau, partner=partner)
     x, iterations, result, stats = solver.run(op, b0c / scale, rtol, max_steps)
     y = x * scale
     residual = _residual(op, b0c, y) if correct_rows else _residual(op, b0, y)

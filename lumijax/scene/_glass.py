@@ -93,16 +93,49 @@ class GlazedCaster(RayCaster):
         tri = np.asarray(triangles, np.float64)
         self._args = (tri, tau)
         glass = tau > 0
+        self._tau_all = tau
+        self._normal_all = self._unit_normals(tri)
         self._glass_index = np.flatnonzero(glass)
         self._glass_tau = tau[glass]
-        nrm = np.cross(tri[glass, 1] - tri[glass, 0], tri[glass, 2] - tri[glass, 0])
-        self._glass_normal = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+        self._glass_normal = self._normal_all[glass]
         self._opaque = self._embree(tri[~glass])
         self._panes = self._embree(tri[glass])
         import hashlib
 
         h = hashlib.sha256(np.ascontiguousarray(tau).tobytes())
         self.glazing_key = h.hexdigest()
+
+    @staticmethod
+    def _unit_normals(tri):
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+    def first_hit_through(self, origins, directions):
+        """The first triangle that is not clear glass along each ray (−1 for none), its
+        distance (m; inf for none), and the light carried to it: the product of τ(θ) of the
+        panes passed on the way."""
+        d = np.asarray(directions, np.float64)
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        pos = np.array(np.broadcast_to(np.asarray(origins, np.float64), d.shape))
+        n = len(d)
+        tri, dist, carried = np.full(n, -1, np.int64), np.full(n, np.inf), np.ones(n)
+        travelled = np.zeros(n)
+        live = np.arange(n)
+        for _ in range(_LAYERS):
+            if not len(live):
+                break
+            t, s = RayCaster.first_hit(self, pos[live], d[live])
+            pane = (t >= 0) & (self._tau_all[np.maximum(t, 0)] > 0)
+            stop = live[~pane]
+            tri[stop] = t[~pane]
+            dist[stop] = np.where(t[~pane] >= 0, travelled[stop] + s[~pane], np.inf)
+            live, t, s = live[pane], t[pane], s[pane]
+            cos = np.einsum("nk,nk->n", d[live], self._normal_all[t])
+            carried[live] *= glass_transmittance(cos, self._tau_all[t])
+            pos[live] += s[:, None] * d[live]
+            travelled[live] += s
+        carried[live] = 0.0  # still among panes after _LAYERS: nothing worth carrying
+        return tri, dist, carried
 
     def __reduce__(self):
         # pickled as its triangles and panes (a plain RayCaster's pickle would lose the glass)

@@ -107,6 +107,16 @@ class RayCaster:
         is opaque here; ``lumijax.scene.GlazedCaster`` lets clear glass through)."""
         return np.where(self.occluded(origins, targets), 0.0, 1.0)
 
+    def first_hit_through(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        directions: Float[np.ndarray, "rays 3"],
+    ) -> tuple[Int[np.ndarray, " rays"], Float[np.ndarray, " rays"], Float[np.ndarray, " rays"]]:
+        """:meth:`first_hit` and the fraction of light carried to it (1 here; a glazed caster
+        passes clear panes, multiplying τ(θ))."""
+        tri, dist = self.first_hit(origins, directions)
+        return tri, dist, np.ones(len(tri))
+
     def first_hit(
         self,
         origins: Float[np.ndarray, "rays 3"],

@@ -22,6 +22,7 @@ from ._geometry import (
     rectangle_triangles,
 )
 from ._raycast import RayCaster
+from ._two_sided import two_sided
 
 __all__ = ["Scene", "build_scene"]
 
@@ -186,6 +187,7 @@ def build_scene(cfg: StudyConfig) -> Scene:
         closed=np.array(closed, bool),
     )
     _warn_coincident(triangles, cfg, src)
+    triangles = two_sided(triangles, materials, src)  # back faces of diffusers (_two_sided.py)
 
     photometries = {}
     for name, p in cfg.photometry.items():
@@ -323,13 +325,13 @@ def _check_energy(refl, spec, trans, src, key: str) -> None:
                                   + [s.wavelengths_nm for s in parts]))
     wl = wl[(wl >= 360.0) & (wl <= 830.0)]
     total = sum(s.at(wl) for s in parts)
-    i = int(np.argmax(total))
     # 1e-9: grey inputs like 0.1 + 0.2 + 0.7 sum to 1 + 1 ulp, which is still "≤ 1"
-    if total[i] > 1.0 + 1e-9:
+    over = np.flatnonzero(total > 1.0 + 1e-9)
+    if len(over):
         raise ConfigError(
-            f"reflectance + specular + transmittance = {total[i]:.4f} > 1 at {wl[i]:g} nm: a "
-            "surface cannot return more light than it receives (expected a sum ≤ 1 at every "
-            "wavelength)", file=src, key=key)
+            f"reflectance + specular + transmittance > 1 from {wl[over[0]]:g} nm (up to "
+            f"{total.max():.4f}): a surface cannot return more light than it receives "
+            "(expected a sum ≤ 1 at every wavelength)", file=src, key=key)
 
 
 def _spectrum(value, src, key):

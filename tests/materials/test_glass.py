@@ -103,6 +103,12 @@ def test_two_panes_and_an_opaque_wall_along_one_ray():
     want = [_beams(1.0, _t_of(0.8)) * _beams(1.0, _t_of(0.5)),
             _beams(c, _t_of(0.8)) * _beams(c, _t_of(0.5)), 0.0]
     np.testing.assert_allclose(got, want, rtol=1e-6)
+    # a gather ray passes both panes and stops at the sheet, 4 m on, carrying τ₁ τ₂
+    tri_hit, dist, carried = caster.first_hit_through(o[:1], np.array([[0.0, 0.0, 1.0]]))
+    assert tri_hit[0] in (4, 5) and dist[0] == pytest.approx(4.0, abs=1e-4)
+    assert carried[0] == pytest.approx(want[0], rel=1e-6)
+    tri_hit, _, carried = caster.first_hit_through(o[:1], np.array([[0.0, 0.0, -1.0]]))
+    assert tri_hit[0] == -1  # nothing below
 
 
 def test_form_factors_through_a_pane_carry_tau_theta():
