@@ -12,6 +12,7 @@ stratified rays (fractional visibility).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -23,6 +24,7 @@ import numpy as np
 from jaxtyping import Float
 
 from ..kernels import form_factor_point_triangle, length_tolerance
+from ..parallel import Executor, LocalExecutor, batches, current_executor
 from ._pairs import PairStats, Tiles, bands, pair_chunks, sub_source_offsets, support_cosine
 
 __all__ = ["DirectLighting", "direct_illuminance", "sub_source_offsets", "support_cosine"]
@@ -60,6 +62,7 @@ def direct_illuminance(
     shadows: bool = True,
     progress: Progress | None = None,
     response=None,
+    executor: Executor | None = None,
 ) -> DirectLighting:
     """Direct illuminance (lx) at ``points`` on planes of ``normals``, per network at dimmer 1.
 
@@ -78,6 +81,10 @@ def direct_illuminance(
         A :class:`lumijax.direct.SensorResponse`: the points are sensors (cylindrical,
         semi-cylindrical, hemispherical) of point sources; area sources are then not included
         (``lumijax.compliance`` adds them).
+    executor
+        Where batches of sources are lit (:mod:`lumijax.parallel`; default
+        :func:`~lumijax.parallel.current_executor`): on a cluster each batch of luminaires is
+        one task and the networks' sums are added here.
 
     Notes
     -----
@@ -94,6 +101,9 @@ def direct_illuminance(
     result = DirectLighting(out, timing_s={"cull": 0.0, "kernel": 0.0, "shadow_rays": 0.0})
     if n_pts == 0:
         return result
+    ex = current_executor() if executor is None else executor
+    if ex.distributed and len(scene.luminaires) + len(scene.area_sources) > 1:
+        return _mapped(ex, scene, points, normals, shadows, response, progress, result)
     caster = scene.raycaster if shadows and len(scene.triangles) else None
     network = np.array([net_index[lum.network] for lum in scene.luminaires], np.int64)
     stats = PairStats(timing_s=result.timing_s)
@@ -119,6 +129,40 @@ def direct_illuminance(
         if progress is not None:
             progress(done, total)
     return result
+
+
+def _mapped(ex: Executor, scene, points, normals, shadows, response, progress,
+            result: DirectLighting) -> DirectLighting:
+    """``direct_illuminance`` with the sources cut into batches, one task each, summed here
+    (reports ``(batches done, batches)``)."""
+    parts = batches(len(scene.luminaires) + len(scene.area_sources), ex.parts())
+    done = ex.map(_direct_task, parts, shared=dict(scene=scene, points=points, normals=normals,
+                                                   shadows=shadows, response=response))
+    for k, d in enumerate(done):
+        result.by_network += d.by_network
+        result.shadow_rays += d.shadow_rays
+        result.candidate_pairs += d.candidate_pairs
+        for key, v in d.timing_s.items():
+            result.timing_s[key] = result.timing_s.get(key, 0.0) + v
+        if progress is not None:
+            progress(k + 1, len(parts))
+    return result
+
+
+def _direct_task(batch: range, *, scene, points, normals, shadows, response) -> DirectLighting:
+    """The light of sources ``batch`` (luminaires, then area sources) on any process: the same
+    scene with only those sources, sharing its ray caster (built once per worker)."""
+    n = len(scene.luminaires)
+    lum = [i for i in batch if i < n]
+    part = dataclasses.replace(
+        scene, luminaires=tuple(scene.luminaires[i] for i in lum),
+        area_sources=tuple(scene.area_sources[i - n] for i in batch if i >= n),
+        levels=None if scene.levels is None else scene.levels[lum],
+        rated_scales=None if scene.rated_scales is None else scene.rated_scales[lum])
+    if shadows and len(scene.triangles):
+        part.__dict__["raycaster"] = scene.raycaster
+    return direct_illuminance(part, points, normals, shadows=shadows, response=response,
+                              executor=LocalExecutor())
 
 
 def _area_illuminance(area, points, normals, caster, timing, triangles=None):

@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..kernels import far_g, form_factor_point_triangle, rounding_length, triangle_spread
+from ..parallel import Executor, batches, current_executor
 from ._hierarchy import cluster_tree, walk_block_tree
 from ._lowrank import Obstacles, aca_block, block_spheres, truncate_block, well_separated
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
@@ -286,6 +287,42 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
     return g
 
 
+def _near_task(pairs, *, patches, part, settings, caster, diam, spread):
+    """One batch of near-field pairs on any process: their dense blocks and ray counts."""
+    counters = dict(rays=0, ray_time=0.0, near_pairs=0)
+    blocks = [_pair_block(patches, part.block(a), part.block(b), a == b, settings, caster,
+                          counters, diam, spread) for a, b in pairs]
+    return blocks, counters
+
+
+def _near_blocks(executor, pairs, computed, patches, part, s, caster, counters, diam, spread):
+    """Each pair's dense block (float64), in ``pairs`` order: here one by one (the blocks
+    already computed by the far field first), or in batches on a cluster's workers, each
+    consumed before the next is fetched."""
+    ex = current_executor() if executor is None else executor
+    todo = [p for p in pairs if p not in computed]
+    results = iter(())
+    if ex.distributed and todo:
+        results = ex.map(_near_task, [[todo[i] for i in r] for r in batches(len(todo),
+                                                                              ex.parts())],
+                         shared=dict(patches=patches, part=part, settings=s, caster=caster,
+                                     diam=diam, spread=spread))
+    pending: list = []
+    for a, b in pairs:
+        g = computed.pop((a, b), None)
+        if g is None and not ex.distributed:
+            g = _pair_block(patches, part.block(a), part.block(b), a == b, s, caster, counters,
+                            diam, spread)
+        elif g is None:
+            if not pending:
+                pending, got = next(results)
+                pending.reverse()
+                for key, v in got.items():
+                    counters[key] += v
+            g = pending.pop()
+        yield g
+
+
 def build_operator(
     patches: Patches,
     part: Partition,
@@ -294,6 +331,7 @@ def build_operator(
     *,
     dtype=np.float32,
     occluder_triangles=None,
+    executor: Executor | None = None,
 ) -> TransportOperator:
     """Compute the form factors of every visible block pair into a :class:`TransportOperator`.
 
@@ -311,6 +349,10 @@ def build_operator(
     occluder_triangles
         The triangles of ``occluders`` when that is a prebuilt ``RayCaster``: they let the
         low-rank far field prove a block pair unshadowed geometrically instead of by sampling.
+    executor
+        Where the near-field blocks are computed (:mod:`lumijax.parallel`); default
+        :func:`~lumijax.parallel.current_executor`, the loop here unless a cluster was given.
+        The far-field walk stays here (it decides which pairs are near).
     """
     from ..scene._raycast import RayCaster
 
@@ -361,6 +403,8 @@ def build_operator(
             lr_entries += 2 * len(ia) * len(ib)
         buckets.append(LowRankBucket(*(jnp.asarray(x) for x in (u, v, recv, src, rblk, sblk)),
                                      chunk=chunk))
+    near_blocks = _near_blocks(executor, [p for _, ks in sorted(keys.items()) for p in ks],
+                               computed, patches, part, s, caster, counters, diam, spread)
     for (sa, sb, diagonal), ks in sorted(keys.items()):
         n = len(ks)
         per_pair = sa * sb * np.dtype(dtype).itemsize
@@ -373,9 +417,7 @@ def build_operator(
         for slot, (a, b) in enumerate(ks):
             rblk[slot], sblk[slot] = a, b
             ia, ib = part.block(a), part.block(b)
-            g = computed.pop((a, b), None)
-            if g is None:
-                g = _pair_block(patches, ia, ib, diagonal, s, caster, counters, diam, spread)
+            g = next(near_blocks)
             nnz += int(np.count_nonzero(g)) * (1 if diagonal else 2)
             blocks[slot, : len(ia), : len(ib)] = g
             recv[slot, : len(ia)] = ia

@@ -28,6 +28,7 @@ import numpy as np
 from jaxtyping import Float
 
 from ..kernels import length_tolerance
+from ..parallel import Executor, current_executor
 from ._gather import GatherOperator
 
 __all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather", "reflect_onto_fine"]
@@ -65,11 +66,14 @@ class FineLevel:
     timing_s: dict = field(default_factory=dict)
 
 
-def build_fine_gather(fine, elements, caster, *, rays: int, chunk: int = 32_768) -> GatherOperator:
+def build_fine_gather(fine, elements, caster, *, rays: int, chunk: int = 32_768,
+                      executor: Executor | None = None) -> GatherOperator:
     """Gather map from the elements onto the fine patches' centroids, cast in chunks.
 
     Each chunk is merged on its own (links never cross points, so this is exact) and the
     links are stored as int32/float32: peak memory is one chunk's rays, not all of them.
+    ``executor`` (:mod:`lumijax.parallel`; default the current one) casts the chunks; each
+    gets the random generator's state at its start, so a cluster casts the same rays.
     """
     # a centroid lies on its own surface: start the rays a hair in front of it
     from ._gather import _cosine_directions, _frames
@@ -82,24 +86,44 @@ def build_fine_gather(fine, elements, caster, *, rays: int, chunk: int = 32_768)
     src = np.asarray(elements.source_triangle)
     tri_normals = np.zeros((int(src.max()) + 1 if len(src) else 0, 3))
     tri_normals[src] = elements.normal
-    pts, pat, wts = [], [], []
-    for s in range(0, fine.n, chunk):
-        p = origins[s:s + chunk]
-        frames = _frames(np.asarray(fine.normal[s:s + chunk], np.float64), rng)
-        dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
-        o = np.repeat(p, rays, axis=0)
-        tri, dist = caster.first_hit(o, dirs)
-        hit = tri >= 0
-        # one-sided surfaces, as in build_gather: a back face blocks but sends nothing
-        hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
-        elem = _element_of(elements, o[hit] + dirs[hit] * dist[hit, None], tri[hit])
-        key = np.repeat(np.arange(len(p), dtype=np.int64), rays)[hit] * elements.n + elem
-        uniq, counts = np.unique(key, return_counts=True)
-        pts.append((uniq // elements.n + s).astype(np.int32))
-        pat.append((uniq % elements.n).astype(np.int32))
-        wts.append((counts / rays).astype(np.float32))
+    normals = np.asarray(fine.normal, np.float64)
+    ex = current_executor() if executor is None else executor
+
+    def spans():
+        for s in range(0, fine.n, chunk):
+            state = rng.bit_generator.state
+            _frames(normals[s:s + chunk], rng)  # the generator where the next chunk starts
+            yield s, state
+
+    done = ex.map(_fine_chunk, spans(), shared=dict(
+        origins=origins, normals=normals, local=local, elements=elements, caster=caster,
+        tri_normals=tri_normals, rays=rays, chunk=chunk))
+    pts, pat, wts = (list(x) for x in zip(*done, strict=True)) if fine.n else ([], [], [])
     return GatherOperator(n_points=fine.n, n_patches=elements.n, point=_cat(pts, np.int32),
                           patch=_cat(pat, np.int32), weight=_cat(wts, np.float32))
+
+
+def _fine_chunk(span, *, origins, normals, local, elements, caster, tri_normals, rays, chunk):
+    """The links of the fine patches ``span[0]`` onward (``chunk`` of them), on any process:
+    ``(points, elements, weights)``; ``span[1]`` is the generator state they start at."""
+    from ._gather import _frames
+
+    s, state = span
+    rng = np.random.default_rng()
+    rng.bit_generator.state = state
+    p = origins[s:s + chunk]
+    frames = _frames(normals[s:s + chunk], rng)
+    dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
+    o = np.repeat(p, rays, axis=0)
+    tri, dist = caster.first_hit(o, dirs)
+    hit = tri >= 0
+    # one-sided surfaces, as in build_gather: a back face blocks but sends nothing
+    hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
+    elem = _element_of(elements, o[hit] + dirs[hit] * dist[hit, None], tri[hit])
+    key = np.repeat(np.arange(len(p), dtype=np.int64), rays)[hit] * elements.n + elem
+    uniq, counts = np.unique(key, return_counts=True)
+    return ((uniq // elements.n + s).astype(np.int32), (uniq % elements.n).astype(np.int32),
+            (counts / rays).astype(np.float32))
 
 
 def _cat(parts, dtype):

@@ -51,6 +51,8 @@ class RayCaster:
             lo, hi = tri.reshape(-1, 3).min(0), tri.reshape(-1, 3).max(0)
         else:
             lo = hi = np.zeros(3)
+        self._triangles = tri  # no copy for float64 input; what a pickle sends (__reduce__)
+        self._digest: str | None = None
         self.origin = 0.5 * (lo + hi)
         self.extent = float(np.max(hi - lo)) if self.n_triangles else 1.0
         self.epsilon = max(self.EPSILON * self.extent, float(np.finfo(np.float64).tiny))
@@ -60,6 +62,15 @@ class RayCaster:
             faces = np.arange(len(verts), dtype=np.int32).reshape(-1, 3)
             self._scene = rtcore_scene.EmbreeScene()
             TriangleMesh(scene=self._scene, vertices=verts, indices=faces)
+
+    def __reduce__(self):
+        # pickled as its triangles, so a Dask worker can hold one (docs/parallel.md); it
+        # rebuilds the Embree scene once per process and content, not once per task
+        from ..parallel import digest
+
+        if self._digest is None:
+            self._digest = digest(self._triangles)
+        return (_unpickled_caster, (self._digest, self._triangles))
 
     def occluded(
         self,
@@ -143,3 +154,9 @@ class RayCaster:
             tri[s : s + _CHUNK] = np.where(hit, prim, -1)
             dist[s : s + _CHUNK] = np.where(hit, t + self.epsilon, np.inf)
         return tri, dist
+
+
+def _unpickled_caster(key: str, triangles: np.ndarray) -> RayCaster:
+    from ..parallel import worker_cached
+
+    return worker_cached(("raycaster", key), lambda: RayCaster(triangles))

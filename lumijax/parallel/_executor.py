@@ -1,0 +1,294 @@
+"""Where the embarrassingly parallel stages run: here (a loop), or on a Dask cluster.
+
+An :class:`Executor` maps a module-level function over batches (luminaire batches of direct
+light, block pairs of the transport build, patch chunks of the final gather) and yields the
+results **in item order**, lazily: the caller consumes one batch's result before the next is
+asked for, so the local loop keeps the memory it had, and on a cluster the results wait on the
+workers, not on the driver. Values every task needs (the scene, the patches) are given as
+``shared``: the local loop passes them as they are; Dask ships each object once per executor and
+worker (``Client.scatter(broadcast=True)``), and a value that rebuilds heavy state when
+unpickled (an Embree scene: ``RayCaster``) does so once per worker (:func:`worker_cached`).
+
+The stage that calls ``map`` does not know which executor it has: it asks
+:func:`current_executor` (the local loop unless :func:`use_executor` set another, as
+``compute(..., scheduler=...)`` does).
+"""
+
+from __future__ import annotations
+
+import abc
+import collections
+import contextlib
+import contextvars
+import re
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from typing import Any, final
+
+from ..errors import LumijaxError
+
+__all__ = ["ClusterError", "Executor", "LocalExecutor", "DaskExecutor", "connect",
+           "current_executor", "use_executor", "executor_scope", "batches",
+           "CONNECT_TIMEOUT_S"]
+
+CONNECT_TIMEOUT_S = 5.0
+"""Seconds a scheduler address is given to answer before the run is refused."""
+
+
+class ClusterError(LumijaxError):
+    """The Dask scheduler cannot be reached, or the cluster lost a task on every worker it
+    tried (``key`` names the setting: ``--scheduler`` / ``scheduler``)."""
+
+
+class Executor(abc.ABC):
+    """Runs ``fn(item, **shared)`` for every item; results in item order."""
+
+    @property
+    @abc.abstractmethod
+    def workers(self) -> int:
+        """Worker processes that run tasks at the same time (1: the local loop)."""
+
+    @property
+    @abc.abstractmethod
+    def distributed(self) -> bool:
+        """Whether tasks leave this process (stages batch only then)."""
+
+    def parts(self) -> int:
+        """How many batches a stage should cut its work into (4 per worker)."""
+        return 4 * self.workers
+
+    @abc.abstractmethod
+    def map(self, fn: Callable[..., Any], items: Iterable[Any], *,
+            shared: Mapping[str, Any] | None = None) -> Iterator[Any]:
+        """``fn(item, **shared)`` of each item, yielded in item order.
+
+        ``fn`` must be a module-level function (it is pickled by reference on a cluster);
+        ``shared`` values are sent once, not once per item.
+        """
+
+
+@final
+class LocalExecutor(Executor):
+    """The loop in this process: ``fn`` runs when its result is asked for."""
+
+    @property
+    def workers(self) -> int:
+        return 1
+
+    @property
+    def distributed(self) -> bool:
+        return False
+
+    def map(self, fn, items, *, shared=None):
+        kw = dict(shared or {})
+        return (fn(item, **kw) for item in items)
+
+
+LOCAL = LocalExecutor()
+
+_CURRENT: contextvars.ContextVar[Executor] = contextvars.ContextVar("lumijax_executor",
+                                                                    default=LOCAL)
+
+
+def current_executor() -> Executor:
+    """The executor the stages map over now (:func:`use_executor`; default the local loop)."""
+    return _CURRENT.get()
+
+
+@contextlib.contextmanager
+def use_executor(executor: Executor) -> Iterator[Executor]:
+    """Run the stages inside the ``with`` block on ``executor``."""
+    token = _CURRENT.set(executor)
+    try:
+        yield executor
+    finally:
+        _CURRENT.reset(token)
+
+
+@contextlib.contextmanager
+def executor_scope(scheduler: Any = None) -> Iterator[Executor]:
+    """:func:`use_executor` of :func:`connect` (``scheduler``), closing what it opened; None
+    keeps the current executor (the local loop by default)."""
+    if scheduler is None:
+        yield current_executor()
+        return
+    ex = connect(scheduler)
+    try:
+        with use_executor(ex):
+            yield ex
+    finally:
+        if ex is not scheduler and isinstance(ex, DaskExecutor):
+            ex.close()
+
+
+def batches(n: int, parts: int) -> list[range]:
+    """``range(n)`` cut into at most ``parts`` contiguous, nearly equal, non-empty batches."""
+    parts = max(1, min(int(parts), n))
+    edges = [round(k * n / parts) for k in range(parts + 1)]
+    return [range(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+
+
+_ADDRESS = re.compile(r"^(tcp|tls|inproc|ucx|ws|wss)://[^\s/:]+(:\d+)?$|^[^\s/:]+:\d+$")
+
+
+@final
+class DaskExecutor(Executor):
+    """Tasks on a ``distributed.Client``'s cluster.
+
+    A worker that dies mid-task has its task re-run on another by the scheduler (up to
+    ``distributed.scheduler.allowed-failures`` times, 3 by default); a task that exhausts
+    them, or a cluster that goes away, raises :class:`ClusterError`. Errors a task raises
+    itself (a ``LumijaxError`` about the input) pass through unchanged.
+
+    Parameters
+    ----------
+    client
+        A connected ``distributed.Client``.
+    owned
+        Close the client with :meth:`close` (a client :func:`connect` made).
+    tasks_per_worker
+        Batches a stage is cut into per worker: more balances uneven tasks and loses less
+        work to a dead worker; fewer costs less per-task overhead (≈ 1–3 ms each).
+    """
+
+    def __init__(self, client, *, owned: bool = False, tasks_per_worker: int = 4) -> None:
+        self.client = client
+        self.owned = owned
+        self.tasks_per_worker = int(tasks_per_worker)
+        #: tasks sent so far, by function name (a study refused before its build sends no
+        #: ``_near_task``)
+        self.submitted: collections.Counter[str] = collections.Counter()
+        self._shared: dict[int, tuple[Any, Any]] = {}  # id → (object kept alive, its future)
+        self._x64: bool | None = None  # the precision the workers were last set to
+
+    @property
+    def address(self) -> str:
+        return str(self.client.scheduler.address)
+
+    @property
+    def workers(self) -> int:
+        return max(1, len(self.client.scheduler_info(n_workers=-1)["workers"]))
+
+    @property
+    def distributed(self) -> bool:
+        return True
+
+    def parts(self) -> int:
+        return self.workers * self.tasks_per_worker
+
+    def _share(self, value):
+        # one copy per worker per object: the same scene or patches object is sent once for
+        # every stage that maps over it (keyed by identity; the object is kept alive here)
+        got = self._shared.get(id(value))
+        if got is not None and got[0] is value:
+            return got[1]
+        if len(self._shared) >= 8:
+            self._shared.pop(next(iter(self._shared)))
+        future = self.client.scatter(value, broadcast=True, hash=False)
+        self._shared[id(value)] = (value, future)
+        return future
+
+    def map(self, fn, items, *, shared=None):
+        import jax
+
+        items = list(items)
+        x64 = bool(jax.config.jax_enable_x64)
+        try:
+            if x64 != self._x64:
+                # shared JAX arrays (photometry tables) are rebuilt when they reach a worker,
+                # before any task runs: in the worker's global precision, which must be ours
+                self.client.register_plugin(_precision_plugin(x64), name="lumijax-precision")
+                self._shared.clear()
+                self._x64 = x64
+            kw = {k: self._share(v) for k, v in (shared or {}).items()}
+            futures = self.client.map(_on_worker, items, fn=fn, x64=x64, pure=False, **kw)
+        except (OSError, TimeoutError) as e:
+            raise self._lost(e) from None
+        self.submitted[fn.__name__] += len(futures)
+        return self._results(futures)
+
+    def _results(self, futures) -> Iterator[Any]:
+        from distributed import KilledWorker
+
+        try:
+            for k, f in enumerate(futures):
+                try:
+                    out = f.result()
+                except (KilledWorker, OSError, TimeoutError) as e:
+                    raise self._lost(e) from None
+                futures[k] = None  # the worker may forget a result once it is here
+                f.release()
+                yield out
+        finally:
+            for f in futures:
+                if f is not None:
+                    f.cancel()
+
+    def _lost(self, e: BaseException) -> ClusterError:
+        return ClusterError(
+            f"the Dask cluster at {self.address} lost a task ({type(e).__name__}: {e}); "
+            "no partial result was kept. Check the workers' memory and logs, or run without "
+            "--scheduler", key="scheduler")
+
+    def close(self) -> None:
+        """Forget the shared values; close the client if this executor opened it."""
+        self._shared.clear()
+        if self.owned:
+            self.client.close()
+
+
+def _precision_plugin(x64: bool):
+    """A worker plugin setting JAX's x64 mode on every worker, present and future (a worker
+    started after one died gets it too)."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class Precision(WorkerPlugin):
+        def __init__(self, x64: bool) -> None:
+            self.x64 = x64
+
+        def setup(self, worker) -> None:
+            import jax
+
+            jax.config.update("jax_enable_x64", self.x64)
+
+    return Precision(x64)
+
+
+def _on_worker(item, *, fn, x64: bool, **shared):
+    """A task as the driver would run it: in its precision (x64 on or off), with JAX's
+    persistent compilation cache on (a worker loads the kernels another process compiled)."""
+    import jax
+
+    from .._jit_cache import enable_compilation_cache
+    from ._shared import worker_cached
+
+    worker_cached(("jax compilation cache",), lambda: enable_compilation_cache() or True)
+    with jax.enable_x64(x64):
+        return fn(item, **shared)
+
+
+def connect(scheduler: Any, *, timeout_s: float = CONNECT_TIMEOUT_S) -> Executor:
+    """An executor for ``scheduler``: an :class:`Executor` as it is, a ``distributed.Client``
+    (not closed after), or an address such as ``tcp://HOST:8786`` (connected within
+    ``timeout_s`` seconds, else :class:`ClusterError`)."""
+    if isinstance(scheduler, Executor):
+        return scheduler
+    try:
+        from distributed import Client
+    except ImportError:  # pragma: no cover - the cluster extra not installed
+        raise ClusterError("running on a Dask cluster needs the 'cluster' extra: "
+                           "pip install 'lumijax[cluster]'", key="scheduler") from None
+    if isinstance(scheduler, Client):
+        return DaskExecutor(scheduler)
+    address = str(scheduler)
+    if not _ADDRESS.match(address):
+        raise ClusterError(f"{address!r} is not a scheduler address; expected tcp://HOST:PORT "
+                           "(e.g. tcp://10.0.0.5:8786)", key="scheduler")
+    try:
+        client = Client(address, timeout=f"{timeout_s}s", set_as_default=False)
+    except (OSError, TimeoutError) as e:
+        raise ClusterError(f"no Dask scheduler answered at {address} within {timeout_s:g} s "
+                           f"({type(e).__name__}); start one (dask scheduler) or check the "
+                           "address and the firewall", key="scheduler") from None
+    return DaskExecutor(client, owned=True)
+
+
