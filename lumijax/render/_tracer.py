@@ -293,7 +293,12 @@ class Tracer:
     def render(self, camera: AbstractCamera, dimmers) -> LuminanceImage:
         """The camera's :class:`LuminanceImage` at ``dimmers``, traced in tiles of rows."""
         w, h = camera.size
-        rows = max(1, self.tile_rays // max(w, 1))
+        opt = self.optics
+        rough = np.any((opt.roughness >= MIRROR_ROUGHNESS) & np.any(opt.specular > 0, axis=1))
+        # a rough lobe multiplies the rays by lobe_rays per bounce: smaller tiles keep the
+        # deepest bounce's batch at tile_rays
+        per_pixel = self.lobe_rays ** self.depth if rough else 1
+        rows = max(1, self.tile_rays // max(w * per_pixel, 1))
         xyz = np.zeros((h * w, 3))
         met = np.zeros(h * w, bool)
         t0 = time.perf_counter()
