@@ -24,8 +24,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._constraints import AbstractConstraint, DesignLight
+from ._models import AimLight
 
-__all__ = ["DesignProblem", "ConstrainedRun", "solve_constrained", "kkt_multipliers"]
+__all__ = ["DesignProblem", "ConstrainedRun", "solve_constrained", "kkt_multipliers",
+           "exact_values"]
 
 _ACTIVE = 1e-3  # a margin (relative) below which a constraint counts as active
 _COARSE = 1e-2  # the first aggregation ε of the continuation
@@ -56,6 +58,26 @@ class DesignProblem(eqx.Module):
             return jnp.zeros(0, x.dtype)
         return jnp.stack([c.margin(light, smooth) for c in self.constraints])
 
+    def margins(self, light: DesignLight, smooth):
+        return jnp.stack([c.margin(light, smooth) for c in self.constraints])
+
+    def g_and_jac(self, x, smooth):
+        """The margins and their Jacobian (constraints × variables). Through an aim model by
+        its structured pull-back (``AimLight.linearise``): the constraints' cotangents on the
+        light, then one pull-back of them all; through the dimmer model by ``vmap`` of one
+        reverse pass (cheap: it is linear)."""
+        eye = None
+        if isinstance(self.model, AimLight):
+            e, b, alpha, pull = self.model.linearise(x)
+            g, vjp = jax.vjp(lambda e, b, a, x: self.margins(DesignLight(e, b, a, x), smooth),
+                             e, b, alpha, x)
+            eye = jnp.eye(g.shape[0], dtype=g.dtype)
+            w_e, w_b, w_alpha, w_x = jax.vmap(vjp)(eye)
+            return g, w_x + pull(w_e, w_b, w_alpha)
+        g, vjp = jax.vjp(lambda x: self.g(x, smooth), x)
+        eye = jnp.eye(g.shape[0], dtype=g.dtype)
+        return g, jax.vmap(lambda w: vjp(w)[0])(eye)
+
     def values(self, x, smooth=None):
         light = self.light(x)
         return jnp.stack([c.value(light, smooth) for c in self.constraints]) if (
@@ -74,7 +96,21 @@ def _g_traced(problem, x, smooth):
 
 @eqx.filter_jit
 def _g_jac_traced(problem, x, smooth):
-    return jax.jacrev(problem.g)(x, smooth)
+    return _g_and_jac_traced(problem, x, smooth)[1]
+
+
+@eqx.filter_jit
+def _g_and_jac_traced(problem, x, smooth):
+    """Margins and their Jacobian from one linearisation, so that SLSQP's ``cons`` and ``jac``
+    at a point light it once."""
+    if not problem.constraints:
+        return jnp.zeros(0, x.dtype), jnp.zeros((0, x.shape[0]), x.dtype)
+    return problem.g_and_jac(x, smooth)
+
+
+@eqx.filter_jit
+def _values_traced(problem, x):
+    return problem.values(x)
 
 
 # ε is an array (traced), so that the continuation's two ε compile once
@@ -84,6 +120,37 @@ def _g(problem, x, smooth):
 
 def _g_jac(problem, x, smooth):
     return _g_jac_traced(problem, x, jnp.asarray(smooth, jnp.float64))
+
+
+def exact_values(problem, x):
+    """Every constraint's exact value (natural units) at ``x``, compiled."""
+    return _values_traced(problem, jnp.asarray(x))
+
+
+class _Margins:
+    """``cons``/``jac`` callbacks of one solve: the margins and their Jacobian at the last point
+    asked, computed together once (SLSQP asks both at each new iterate)."""
+
+    def __init__(self, problem, smooth):
+        self.problem, self.smooth = problem, jnp.asarray(smooth, jnp.float64)
+        self.key: bytes | None = None
+        self.g = self.jac = np.zeros(0)
+
+    def _at(self, x):
+        x = np.asarray(x, np.float64)
+        if self.key != x.tobytes():
+            g, jac = _g_and_jac_traced(self.problem, jnp.asarray(x), self.smooth)
+            self.g = np.asarray(g, np.float64)
+            self.jac = np.asarray(jac, np.float64).reshape(-1, len(x))
+            self.key = x.tobytes()
+
+    def cons(self, x):
+        self._at(x)
+        return self.g
+
+    def jacobian(self, x):
+        self._at(x)
+        return self.jac
 
 
 @dataclass
@@ -122,12 +189,8 @@ def _one_solve(problem, x0, lo, hi, smooth, method, max_steps, tol):
         v, g = _f_grad(problem, jnp.asarray(x))
         return float(v), np.asarray(g, np.float64)
 
-    def cons(x):
-        return np.asarray(_g(problem, jnp.asarray(x), smooth), np.float64)
-
-    def jac(x):
-        return np.asarray(_g_jac(problem, jnp.asarray(x), smooth), np.float64).reshape(
-            -1, len(x))
+    margins = _Margins(problem, smooth)
+    cons, jac = margins.cons, margins.jacobian
 
     def callback(*args):
         xk = args[0] if not hasattr(args[0], "x") else args[0].x
@@ -197,8 +260,9 @@ def kkt_multipliers(problem: DesignProblem, x, lo, hi, smooth, *, active_tol: fl
     grad = np.asarray(grad, np.float64)
     if m == 0:
         return np.zeros(0), np.zeros(0), np.zeros(0, bool)
-    g = np.asarray(_g(problem, jnp.asarray(x), smooth), np.float64)
-    jac = np.asarray(_g_jac(problem, jnp.asarray(x), smooth), np.float64).reshape(m, -1)
+    g, jac = _g_and_jac_traced(problem, jnp.asarray(x), jnp.asarray(smooth, jnp.float64))
+    g = np.asarray(g, np.float64)
+    jac = np.asarray(jac, np.float64).reshape(m, -1)
     active = g <= active_tol
     span = np.maximum(np.asarray(hi) - np.asarray(lo), 1e-300)
     at_lo = (x - lo) <= 1e-6 * span

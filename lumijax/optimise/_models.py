@@ -36,13 +36,15 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import jax.scipy.linalg
 import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ..direct import PairSet, build_pairs
 from ..scene._frames import aim_rotation
 
-__all__ = ["DimmerLight", "AimLight", "build_aim_light", "operator_dtype"]
+__all__ = ["DimmerLight", "AimLight", "build_aim_light", "operator_dtype", "DENSE_PATCHES",
+           "dense_reflection"]
 
 
 class DimmerLight(eqx.Module):
@@ -78,6 +80,10 @@ class AimLight(eqx.Module):
     pairs: tuple[PairSet, ...]
     transport: object | None
     rho: Float[Array, " patches"] | None
+    #: LAPACK LU factors ``(lu, piv)`` of the dense, row-corrected ``I − ρFc`` (float64), or
+    #: None: small operators are solved by them (:data:`DENSE_PATCHES`), larger ones by the
+    #: study's Krylov solve.
+    lu: tuple[Float[Array, "patches patches"], Int[Array, " patches"]] | None
     gather_point: Int[Array, " links"] | None
     gather_patch: Int[Array, " links"] | None
     gather_weight: Float[Array, " links"] | None
@@ -117,24 +123,137 @@ class AimLight(eqx.Module):
 
     def __call__(self, x):
         alpha, tilt, pan, level = self.split(x)
-        flat = self.direct(tilt, pan, alpha[self.network] * level)
+        return self._assemble(alpha, self.direct(tilt, pan, alpha[self.network] * level))
+
+    def _assemble(self, alpha, flat):
+        """``(E, B, α)`` from the variable luminaires' direct light ``flat`` on the receivers."""
         n = self.n_points
         e = alpha @ self.base + flat[:n]
         b = None
         if self.base_radiosity is not None:
             b = alpha @ self.base_radiosity
         if self.transport is not None:
-            from ..radiosity import solve_radiosity
-
-            dt = operator_dtype(self.transport)
             d_patch = flat[n:] - alpha @ self.start_patch
-            b0 = (self.rho * d_patch).astype(dt)[:, None]
-            db = solve_radiosity(self.transport, self.rho.astype(dt), b0,
-                                 rtol=self.rtol).value[:, 0].astype(e.dtype)
+            db = self.reflect(self.rho * d_patch).astype(e.dtype)
             e = e + jax.ops.segment_sum(db[self.gather_patch] * self.gather_weight,
                                         self.gather_point, num_segments=n)
             b = b + db
         return e, b, alpha
+
+    def linearise(self, x):
+        """``(E, B, α, pull)``: the light at ``x`` and ``pull(W_e, W_b, W_α) -> W_x``, the
+        pull-back of m cotangents at once (rows; ``W_b`` None without patches) onto the flat
+        variables: the rows of the Jacobian of anything computed from the light.
+
+        Built on the model's structure rather than ``vmap`` over a reverse pass (measured on the
+        demo, 230 re-aimed luminaires: 12 pull-backs of the direct light by ``vmap`` cost 13× its
+        forward, of the reflection by the LU under ``vmap`` 10×; benchmarks/design.py):
+
+        * a pair's light depends on its own luminaire's aim only, so two forward tangents (every
+          tilt, then every pan, at once) give each pair's ``∂E_p/∂tilt`` and ``∂E_p/∂pan``, and
+          a constraint's derivative per luminaire is a segment sum over its pairs;
+        * the inter-reflected change is linear, ``ΔB = R ρ ΔE_patch``: its pull-back is one
+          solve with ``Rᵀ`` for the m cotangent columns together.
+        """
+        alpha, tilt, pan, level = self.split(x)
+        weight = alpha[self.network] * level
+        v, k, nr = self.n_var, self.base.shape[0], self.n_receivers
+        rot0 = self.frame @ aim_rotation(tilt, pan, self.spin)
+        per_pair = []
+        flat = jnp.zeros(nr, self.base.dtype)
+        for p in self.pairs:
+            dt = p.gain.dtype
+
+            def light(t, q, p=p, dt=dt):
+                return p.light((self.frame @ aim_rotation(t, q, self.spin)).astype(dt))
+
+            if self.aims:
+                e_p, d_tilt = jax.jvp(light, (tilt, pan), (jnp.ones_like(tilt),
+                                                            jnp.zeros_like(pan)))
+                _, d_pan = jax.jvp(light, (tilt, pan), (jnp.zeros_like(tilt),
+                                                         jnp.ones_like(pan)))
+            else:
+                e_p, d_tilt, d_pan = p.light(rot0.astype(dt)), None, None
+            per_pair.append((e_p, d_tilt, d_pan))
+            flat = flat + jax.ops.segment_sum(e_p * weight.astype(dt)[p.luminaire], p.receiver,
+                                              num_segments=nr).astype(flat.dtype)
+        e, b, alpha = self._assemble(alpha, flat)
+
+        def rows_by(w, seg, count):  # (m, items) summed into (m, count) by segment
+            return jax.ops.segment_sum(w.T, seg, num_segments=count).T
+
+        def pull(w_e, w_b, w_alpha):
+            w_alpha = w_alpha + w_e @ self.base.T
+            if self.base_radiosity is not None:
+                w_alpha = w_alpha + w_b @ self.base_radiosity.T
+            w_flat = w_e
+            if self.transport is not None:
+                w_db = w_b + rows_by(w_e[:, self.gather_point] * self.gather_weight,
+                                     self.gather_patch, self.rho.shape[0])
+                w_d = self.rho * self.reflect_t(w_db)
+                w_alpha = w_alpha - w_d @ self.start_patch.T
+                w_flat = jnp.concatenate([w_e, w_d], axis=1)
+            w_weight = jnp.zeros((w_e.shape[0], v), e.dtype)
+            w_tilt = w_pan = w_weight
+            for p, (e_p, d_tilt, d_pan) in zip(self.pairs, per_pair, strict=True):
+                w_r = w_flat[:, p.receiver]
+                w_weight = w_weight + rows_by(w_r * e_p, p.luminaire, v)
+                if self.aims:
+                    w_tilt = w_tilt + rows_by(w_r * d_tilt, p.luminaire, v)
+                    w_pan = w_pan + rows_by(w_r * d_pan, p.luminaire, v)
+            w_alpha = w_alpha + rows_by(w_weight * level, self.network, k)
+            out = [w_alpha]
+            if self.aims:
+                out += [w_tilt * weight, w_pan * weight]
+            if self.levels:
+                out.append(w_weight * alpha[self.network])
+            return jnp.concatenate(out, axis=1)
+
+        return e, b, alpha, pull
+
+    def reflect(self, b0: Float[Array, " patches"]) -> Float[Array, " patches"]:
+        """``(I − ρF)⁻¹ B₀`` (lm/m²) with the solve's row correction: by the LU factors when
+        the model holds them (a triangular pair forward, the same transposed for the adjoint:
+        a Jacobian of m constraints costs m of those, not m Krylov solves under ``vmap``),
+        else by the study's Krylov solve."""
+        if self.lu is not None:
+            return jax.scipy.linalg.lu_solve(self.lu, b0.astype(self.lu[0].dtype))
+        from ..radiosity import solve_radiosity
+
+        dt = operator_dtype(self.transport)
+        return solve_radiosity(self.transport, self.rho.astype(dt), b0.astype(dt)[:, None],
+                               rtol=self.rtol).value[:, 0]
+
+    def reflect_t(self, w: Float[Array, "m patches"]) -> Float[Array, "m patches"]:
+        """Rows ``w`` times ``(I − ρF)⁻¹`` (the transposed solve of :meth:`reflect`), m rows at
+        once: one LU solve of m columns, else the Krylov solve's reverse pass per row."""
+        if self.lu is not None:
+            return jax.scipy.linalg.lu_solve(self.lu, w.T.astype(self.lu[0].dtype),
+                                             trans=1).T.astype(w.dtype)
+        _, pull = jax.vjp(self.reflect, jnp.zeros(self.rho.shape[0], w.dtype))
+        return jax.vmap(lambda r: pull(r)[0])(w).astype(w.dtype)
+
+
+DENSE_PATCHES = 6000
+"""Largest coarse patch count whose reflection the aim model factorises densely (float64: 288 MB
+at 6,000 patches, an LU of ~1.4·10¹¹ flops once). Measured on the demo (3,490 patches, contended,
+benchmarks/RESULTS.md): the constraints' Jacobian by ``vmap`` over Krylov solves took 3.7 s a
+step, by the LU 0.X s."""
+
+
+def dense_reflection(transport, rho) -> tuple[Array, Array]:
+    """LU factors of ``I − diag(ρ) F diag(c)``: the system ``solve_radiosity`` solves (its row
+    correction ``c``, ``radiosity.row_correction``, folded in: ``B − ρF(cB) = B₀``)."""
+    import scipy.linalg
+
+    from ..radiosity import row_correction
+
+    c, _ = row_correction(transport.row_sums())
+    f = transport.todense()
+    k = -(np.asarray(rho, np.float64)[:, None] * f) * np.asarray(c, np.float64)[None, :]
+    k[np.diag_indices_from(k)] += 1.0
+    lu, piv = scipy.linalg.lu_factor(k, overwrite_a=True, check_finite=False)
+    return jnp.asarray(lu), jnp.asarray(piv)
 
 
 PAIR_THRESHOLD = 1e-4
@@ -152,14 +271,17 @@ def operator_dtype(transport) -> np.dtype:
 
 def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims: bool,
                     levels: bool, indirect: bool = True, dtype=np.float64,
-                    pair_dtype=None, threshold: float = PAIR_THRESHOLD) -> AimLight:
+                    pair_dtype=None, threshold: float = PAIR_THRESHOLD,
+                    dense: bool = True) -> AimLight:
     """Precompute pairs, visibility and the start-aim direct light for luminaires ``variable``
     (indices into ``scene.luminaires``).
 
     ``tilt_span``/``pan_span`` are each luminaire's largest aim change either way (radians):
     the support cone is widened by their sum, which bounds how far the beam axis can turn.
     ``pair_dtype`` is the precision of the pairs (default: the study's, that of its transport
-    operator, float64 without one); the inter-reflected change is solved at the operator's.
+    operator, float64 without one); the inter-reflected change is solved by the dense LU
+    (float64) up to :data:`DENSE_PATCHES` patches when ``dense``, else at the operator's
+    precision by its Krylov solve.
 
     A pair enters only if the luminaire's intensity towards the receiver can exceed
     ``threshold`` × its peak at some aim within the bounds (the cone where it does, widened by
@@ -200,9 +322,9 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
         tilt0=f(np.radians([lum.tilt for lum in lums]).astype(dtype)),
         pan0=f(np.radians([lum.pan for lum in lums]).astype(dtype)),
         spin=f(np.radians([lum.spin for lum in lums]).astype(dtype)),
-        pairs=tuple(pairs), transport=None, rho=None, gather_point=None, gather_patch=None,
-        gather_weight=None, n_points=n_pts, n_receivers=len(rcv), aims=aims, levels=levels,
-        rtol=None,
+        pairs=tuple(pairs), transport=None, rho=None, lu=None, gather_point=None,
+        gather_patch=None, gather_weight=None, n_points=n_pts, n_receivers=len(rcv), aims=aims,
+        levels=levels, rtol=None,
     )
     # the variable luminaires' own direct light at the start, per network: taken out of the
     # study's solution so that the model adds it back at whatever aim
@@ -223,5 +345,7 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
             rho=f(np.asarray(lighting.coarse.rho, dtype)), gather_point=f(g.point),
             gather_patch=f(g.patch), gather_weight=f(np.asarray(g.weight, dtype)),
         )
+        if dense and lighting.transport.n_patches <= DENSE_PATCHES:
+            fields["lu"] = dense_reflection(lighting.transport, lighting.coarse.rho)
     return eqx.tree_at(lambda m: [getattr(m, n) for n in fields], model, list(fields.values()),
                        is_leaf=lambda x: x is None)

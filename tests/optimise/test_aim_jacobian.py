@@ -1,0 +1,77 @@
+"""The aim model's structured Jacobian (``AimLight.linearise``: per-pair forward tangents, one
+transposed LU solve for every constraint) against plain reverse-mode autodiff of the forward
+model (``jax.jacrev`` of the margins), and its dense LU reflection against the study's Krylov
+solve, at aims away from the start (where the inter-reflected change is not zero)."""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from lumijax.lighting._solution import float64_scope
+from lumijax.optimise import _optimise
+from lumijax.optimise._constrained import DesignProblem, _g_and_jac_traced
+from lumijax.optimise._constraints import GridAverage, GridMinimum, GridUniformity
+from lumijax.optimise._standard import _power_model
+
+
+def _problem(study, results, variables):
+    ocfg = _optimise._settings(study, dict(objective="power", variables=variables,
+                                           tilt_range_deg=(-8.0, 8.0),
+                                           pan_range_deg=(-8.0, 8.0)))
+    setup = _optimise._setup(study, results, ocfg)
+    n = len(study.scene.grids[0])
+
+    def c(cls, bound, sense=1):
+        return cls(label=cls.__name__, key="k", unit="", sense=sense, bound=jnp.asarray(bound),
+                   ref=abs(bound), start=0, stop=n)
+
+    power = _power_model(setup, study.scene)
+    cons = (c(GridAverage, 30.0), c(GridMinimum, 5.0), c(GridUniformity, 0.2),
+            c(GridAverage, 80.0, sense=-1))
+    return DesignProblem(setup.model, power, cons, objective_scale=80.0), setup.params
+
+
+@pytest.mark.parametrize("variables", [["dimmers", "aims", "levels"]])
+def test_structured_jacobian_equals_reverse_mode(facade_results, variables):
+    study, results = facade_results
+    with float64_scope():
+        problem, params = _problem(study, results, variables)
+        assert problem.model.lu is not None  # the facade's 200 patches: the dense path
+        rng = np.random.default_rng(3)
+        lo, hi = np.asarray(params.lower), np.asarray(params.upper)
+        x = jnp.asarray(lo + (hi - lo) * rng.uniform(size=lo.shape))
+        smooth = jnp.asarray(1e-2)
+        g, jac = _g_and_jac_traced(problem, x, smooth)
+        ref = jax.jacrev(problem.g)(x, smooth)
+        np.testing.assert_allclose(np.asarray(g), np.asarray(problem.g(x, smooth)),
+                                   rtol=1e-12, atol=1e-12)
+        scale = float(jnp.max(jnp.abs(ref)))
+        assert scale > 0
+        np.testing.assert_allclose(np.asarray(jac), np.asarray(ref), rtol=1e-7,
+                                   atol=1e-9 * scale)
+        # the aims really move the constraints (the test would pass trivially otherwise)
+        k = len(study.scene.networks)
+        assert float(jnp.max(jnp.abs(jac[:, k:]))) > 1e-3 * scale
+
+
+def test_dense_reflection_equals_the_krylov_solve(facade_results):
+    study, results = facade_results
+    with float64_scope():
+        problem, params = _problem(study, results, ["dimmers", "aims"])
+        model = problem.model
+        krylov = eqx.tree_at(lambda m: m.lu, model, None, is_leaf=lambda v: v is None)
+        x0 = np.asarray(params.x0)
+        x = jnp.asarray(np.clip(x0 + 0.1, params.lower, params.upper))
+        e1, b1, _ = model(x)
+        e2, b2, _ = krylov(x)
+        e0, b0, _ = model(jnp.asarray(x0))
+        moved = float(jnp.max(jnp.abs(b1 - b0)))
+        assert moved > 1e-3 * float(jnp.max(b1))  # the change of inter-reflection is real
+        np.testing.assert_allclose(np.asarray(b1), np.asarray(b2), rtol=0,
+                                   atol=1e-6 * float(jnp.max(b1)))
+        np.testing.assert_allclose(np.asarray(e1), np.asarray(e2), rtol=0,
+                                   atol=1e-6 * float(jnp.max(e1)))
