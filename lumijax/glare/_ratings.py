@@ -63,7 +63,8 @@ def glare_rating(luminaire_veiling: Float[Array, "..."],
     environment's average luminance L_av (cd/m², ``L_ve = 0.035 L_av``); held ≥ 0."""
     lve = ENVIRONMENT_VEILING_FACTOR * jnp.maximum(environment_luminance, _TINY)
     y = jnp.maximum(luminaire_veiling, _TINY) / lve ** 0.9
-    return 27.0 + 24.0 * jnp.log10(jnp.maximum(y, 10.0 ** (-27.0 / 24.0)))
+    # the floor's 27 + 24 log10(10^(−27/24)) is 0 only up to rounding: held at 0 exactly
+    return jnp.maximum(27.0 + 24.0 * jnp.log10(jnp.maximum(y, 10.0 ** (-27.0 / 24.0))), 0.0)
 
 
 def threshold_increment(veiling: Float[Array, "..."],

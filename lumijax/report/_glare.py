@@ -44,6 +44,7 @@ def glare_sections(study: Study, results: Results, pictures: bool) -> list[Repor
                                              "worst GR at (deg)", "TI (%)",
                                              "largest veiling shares (GR)"))
     body = f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+    body += _surfaces_table(data)
     if pictures:
         figs = []
         surface = None
@@ -76,6 +77,26 @@ def glare_sections(study: Study, results: Results, pictures: bool) -> list[Repor
         lead="UGR (CIE 117), GR (CIE 112 / EN 12464-2) and TI (CIE 140) per observer, worst "
              "over its directions; docs/glare.md says how each is computed.",
         html=body)]
+
+
+def _surfaces_table(data: dict) -> str:
+    """The named surfaces each observer sees: largest and mean luminance B/π (cd/m²), and the
+    observer's ``max_luminance_cdm2`` limit with whether it is met; empty without any."""
+    rows = []
+    for name, d in data.items():
+        for surf, e in (d.get("surfaces") or {}).items():
+            limit = e.get("limit_cdm2")
+            met = "" if limit is None else ("✓" if e["meets"] else "✗")
+            cells = [html.escape(name), html.escape(surf), _f(e["max_luminance_cdm2"], ".3g"),
+                     _f(e["mean_luminance_cdm2"], ".3g"), _f(limit, "g"), met]
+            rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    if not rows:
+        return ""
+    head = "".join(f"<th>{h}</th>" for h in ("observer", "surface seen", "max L (cd/m²)",
+                                             "mean L (cd/m²)", "limit (cd/m²)", "met"))
+    return (f"<p>Named surfaces as each observer sees them (L = B/π of the patches its eye "
+            f"reaches):</p><table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}"
+            "</tbody></table>")
 
 
 def _title(name: str, d: dict) -> str:
