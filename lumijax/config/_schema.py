@@ -543,6 +543,10 @@ class SolverConfig(_Model):
     refine: Annotated[int, Field(ge=0, le=6)] = 0
     refine_threshold: Annotated[float, Field(gt=0, le=1)] = 0.5
     operator_patches: Annotated[int, Field(ge=10, le=10_000_000)] | None = None
+    # "blocks": the exact block operator; "sampled": ray-sampled form factors, O(P·rays)
+    # memory for open scenes of 10⁵–10⁶ patches (docs/radiosity.md, "Sampled transport")
+    transport: Literal["blocks", "sampled"] = "blocks"
+    rays_per_patch: Annotated[int, Field(ge=16, le=65536)] = 256
 
 
 class OptimiseConfig(_Model):

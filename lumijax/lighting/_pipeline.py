@@ -59,7 +59,7 @@ def solve_lighting(
         sol = st.direct_only(scene, points, normals, emission, direct)
         return _timed(sol, t0)
     meshed = st.mesh(scene, emission, settings)
-    transport = st.build_transport(scene, meshed, settings, cache_dir)
+    transport = st.build_transport(scene, meshed, settings, cache_dir, report("form factors"))
     direct = st.light_patches(direct, emission, meshed, report("direct light on patches"))
     sampling = st.sample_spectra(scene, meshed, settings)
     rays = st.cast_gather_rays(points, normals, meshed, scene, settings,

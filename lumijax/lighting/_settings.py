@@ -29,6 +29,8 @@ class SolverSettings:
     refine: int = 0  # most levels of adaptive refinement (docs/radiosity.md, "Refinement")
     refine_threshold: float = 0.5
     operator_patches: int | None = None  # two levels: elements for the operator (docs/radiosity.md)
+    transport: str = "blocks"  # "sampled": ray-sampled form factors (radiosity/_sampled.py)
+    rays_per_patch: int = 256  # rays cast from each patch by the sampled transport
 
 
 def auto_patch_size(total_area_m2: float, target_patches: int) -> float:

@@ -294,7 +294,7 @@ def mesh(scene: Scene, emission: Emission, settings: SolverSettings) -> Meshed:
 
 
 def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
-                    cache_dir=None) -> Transport:
+                    cache_dir=None, report: Report | None = None) -> Transport:
     """The operator of ``meshed.patches``: its memory bounded before any form factor (an
     operator that cannot fit is refused now, naming the settings that would fit, not after
     minutes of building: docs/radiosity.md, "Memory estimate"), then read from ``cache_dir``
@@ -302,6 +302,8 @@ def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
     t = time.perf_counter()
     tri, caster, patches, fine = scene.triangles, scene.raycaster, meshed.patches, meshed.fine
     dtype = np.float64 if settings.precision == "float64" else np.float32
+    if settings.transport == "sampled":
+        return _sampled_transport(scene, patches, settings, dtype, cache_dir, t, report)
     estimate, part = bound_operator_memory(
         patches, max_block=settings.max_block, itemsize=np.dtype(dtype).itemsize,
         caster=caster, triangles=len(tri), two_levels=fine is not None,
@@ -328,6 +330,31 @@ def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
         operator = build_operator(patches, part, caster, dtype=dtype,
                                   occluder_triangles=tri.vertices)
     return Transport(operator, hit, int(estimate.stored_bytes), bound_s, partition_s,
+                     time.perf_counter() - t)
+
+
+def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings, dtype,
+                       cache_dir, t0: float, report: Report | None = None) -> Transport:
+    """``[solver] transport = "sampled"``: rays from every patch (radiosity/_sampled.py), its
+    memory bounded first (every ray a link), then cached like the block operator."""
+    from ..radiosity import SampledSettings, build_sampled, cached_sampled_operator
+    from ..radiosity._estimate import bound_sampled_memory
+
+    estimate = bound_sampled_memory(patches.n, settings.rays_per_patch,
+                                    itemsize=np.dtype(dtype).itemsize, file=scene.source)
+    bound_s = time.perf_counter() - t0
+    t = time.perf_counter()
+    ss = SampledSettings(rays_per_patch=settings.rays_per_patch)
+    hit: bool | None = None
+    if cache_dir is not None:
+        operator, hit = cached_sampled_operator(patches, scene.triangles.vertices, ss,
+                                                cache_dir=cache_dir, dtype=dtype,
+                                                caster=scene.raycaster, progress=report)
+        hit = bool(hit)
+    else:
+        operator = build_sampled(patches, scene.triangles.vertices, ss, caster=scene.raycaster,
+                                 dtype=dtype, progress=report)
+    return Transport(operator, hit, int(estimate.stored_bytes), bound_s, None,
                      time.perf_counter() - t)
 
 
@@ -532,7 +559,8 @@ def _check_before_meshing(scene: Scene, tri, size: float, settings: SolverSettin
         esize = esize if esize > size else None
     check_before_meshing(tri.vertices, tri.group, size, element_size=esize,
                          itemsize=8 if settings.precision == "float64" else 4,
-                         max_block=settings.max_block, file=scene.source)
+                         max_block=settings.max_block, file=scene.source,
+                         dense=settings.transport != "sampled")
 
 
 def _group_counts(tri, target_patches: int) -> np.ndarray:

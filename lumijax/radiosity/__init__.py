@@ -4,6 +4,7 @@ Data flow inside the wing (see ``docs/radiosity.md`` and ``docs/architecture.md`
 
     triangles ─ mesh_patches ─▶ Patches ─ partition ─▶ Partition ─ build_operator ─▶ TransportOperator
         (cached by cached_operator)                                                     │
+        (or build_sampled: rays from every patch, [solver] transport = "sampled")     │
     B₀ (direct light per patch) ───────────────────── solve_radiosity ◀────────────────┘
                                                             │
     grids ─ build_gather ─▶ GatherOperator ◀── B (radiosity per patch) ─▶ illuminance on grids
@@ -13,6 +14,7 @@ from ._build import FormFactorSettings as FormFactorSettings, build_operator as 
 from ._cache import (
     cache_path as cache_path,
     cached_operator as cached_operator,
+    cached_sampled_operator as cached_sampled_operator,
     operator_key as operator_key,
 )
 from ._gather import GatherOperator as GatherOperator, build_gather as build_gather
@@ -20,6 +22,7 @@ from ._operator import (
     Bucket as Bucket,
     LowRankBucket as LowRankBucket,
     ReflectionOperator as ReflectionOperator,
+    SampledBucket as SampledBucket,
     TransportOperator as TransportOperator,
 )
 from ._partition import (
@@ -36,6 +39,12 @@ from ._refine import (
     Refinement as Refinement,
     edge_neighbours as edge_neighbours,
     refine_patches as refine_patches,
+)
+from ._sampled import (
+    PatchLocator as PatchLocator,
+    SampledSettings as SampledSettings,
+    build_sampled as build_sampled,
+    sample_batch as sample_batch,
 )
 from ._solve import (
     CLOSED_TOL as CLOSED_TOL,

@@ -28,16 +28,19 @@ from ._build import FormFactorSettings, build_operator
 from ._operator import TransportOperator
 from ._partition import PartitionSettings, partition
 from ._patches import Patches
+from ._sampled import SampledSettings, build_sampled
 from ._store import FORMAT, OperatorFileError, cache_secret, read_operator, write_operator
 
-__all__ = ["cache_path", "cached_operator", "code_version", "operator_key"]
+__all__ = ["cache_path", "cached_operator", "cached_sampled_operator", "code_version",
+           "operator_key"]
 
 # The modules whose code decides the numbers in F (relative to the package): an edit to any of
 # them changes the key. Add a module here when it starts to take part in building F.
 _F_MODULES = (
     "radiosity/_build.py", "radiosity/_hierarchy.py", "radiosity/_lowrank.py",
     "radiosity/_operator.py", "radiosity/_partition.py", "radiosity/_store.py",
-    "kernels/_form_factors.py", "scene/_raycast.py", "scene/_glass.py",
+    "kernels/_form_factors.py", "scene/_raycast.py", "scene/_glass.py", "radiosity/_sampled.py",
+    "radiosity/_gather.py",
 )
 
 
@@ -159,13 +162,51 @@ def cached_operator(
         "glazing": caster.glazing_key}
     key = operator_key(patches, occluders=occ, partition=ps, form_factors=settings,
                        dtype=np.dtype(dtype), **glazing)
+
+    def build():
+        c = caster if caster is not None or occ is None else RayCaster(occ)
+        part = partition(patches, **dataclasses.asdict(ps), occluders=c)
+        return build_operator(patches, part, c, settings, dtype=dtype, occluder_triangles=occ)
+
+    return _cached(patches, key, cache_dir, build)
+
+
+def cached_sampled_operator(
+    patches: Patches,
+    occluders,
+    settings: SampledSettings | None = None,
+    *,
+    cache_dir: str | Path,
+    dtype=np.float32,
+    caster=None,
+    progress=None,
+) -> tuple[TransportOperator, bool]:
+    """:func:`cached_operator` for the ray-sampled transport (``_sampled.py``): the key holds
+    the :class:`SampledSettings` (rays, seed, batch) in place of the partition and form-factor
+    settings, so a sampled and a block operator of one mesh never share a file.
+
+    ``occluders``: the scene's triangles ``(T, 3, 3)`` (every one casts shadows; required, the
+    rays need them). ``progress(done, total)`` is called per batch of a build."""
+    settings = settings or SampledSettings()
+    occ = np.asarray(occluders, np.float64)
+    key = operator_key(patches, occluders=occ, sampled=settings, dtype=np.dtype(dtype))
+
+    def build():
+        c = caster if caster is not None else RayCaster(occ)
+        return build_sampled(patches, occ, settings, caster=c, dtype=dtype, progress=progress)
+
+    return _cached(patches, key, cache_dir, build)
+
+
+def _cached(patches: Patches, key: str, cache_dir, build) -> tuple[TransportOperator, bool]:
+    """The operator of ``key`` from ``cache_dir``, else ``build()`` written there."""
     path = cache_path(cache_dir, key)
     remove_orphans(cache_dir)  # temporaries of writers killed mid-write (the operator's size)
     try:
         secret = cache_secret()
     except OutputError as e:
         warnings.warn(f"no cache secret ({e}); the operator is built and not cached",
-                      LumijaxWarning, stacklevel=2)
+                      LumijaxWarning, stacklevel=3)
         secret = None
     if secret is not None and (path.exists() or path.is_symlink()):
         try:
@@ -177,16 +218,13 @@ def cached_operator(
         except OperatorFileError as e:
             if e.reason != "format":
                 warnings.warn(f"cache file {path} is corrupt ({e.message}); rebuilding",
-                              LumijaxWarning, stacklevel=2)
-    if occ is not None and caster is None:
-        caster = RayCaster(occ)
-    part = partition(patches, **dataclasses.asdict(ps), occluders=caster)
-    op = build_operator(patches, part, caster, settings, dtype=dtype, occluder_triangles=occ)
+                              LumijaxWarning, stacklevel=3)
+    op = build()
     if secret is None:
         return op, False
     try:
         write_operator(path, op, key=key, secret=secret)
     except OutputError as e:
         warnings.warn(f"cannot write cache file {path} ({e.message}); continuing without it",
-                      LumijaxWarning, stacklevel=2)
+                      LumijaxWarning, stacklevel=3)
     return op, False

@@ -33,6 +33,7 @@ __all__ = [
     "OperatorEstimate",
     "available_memory_bytes",
     "block_sizes",
+    "bound_sampled_memory",
     "check_operator_memory",
     "estimate_before_partition",
     "estimate_from_partition",
@@ -299,18 +300,20 @@ def patch_count(vertices, size: float, group=None):
 
 def check_before_meshing(vertices, group, size: float, *, element_size: float | None = None,
                          itemsize: int = 4, max_block: int = 1024, file=None,
-                         available: int | None = None) -> None:
+                         available: int | None = None, dense: bool = True) -> None:
     """Refuse, before any patch exists, a mesh whose patches alone would not fit, or whose
     operator is hopeless (:data:`HOPELESS_RATIO`) even before its blocks are counted: a
     ``patch_size`` of 1 nm on a room would otherwise be meshed until memory runs out.
 
-    ``element_size``: the two-level element edge (m) when the operator is on elements."""
+    ``element_size``: the two-level element edge (m) when the operator is on elements.
+    ``dense=False``: the operator is ray-sampled (linear in patches, :func:`bound_sampled_memory`
+    bounds it after meshing), so only the mesh itself is checked here."""
     available = available_memory_bytes() if available is None else int(available)
     n_tri = len(vertices)
     fine = patch_count(vertices, size)
     if not PATCH_BYTES * fine <= available:
         n_fit = 0.5 * available / PATCH_BYTES
-        if element_size is None:  # one level: the operator, ~itemsize × P² (peak ≈ 2×), too
+        if element_size is None and dense:  # one level: the operator, ~itemsize × P², too
             n_fit = min(n_fit, 0.5 * math.sqrt(available / itemsize))
         fit = math.sqrt(fine / n_fit) * size
         raise SolveError(
@@ -319,7 +322,7 @@ def check_before_meshing(vertices, group, size: float, *, element_size: float | 
             f"patch_size ≥ {fit:.3g} m (or a smaller target_patches)", file=file, key="solver")
     coarse = fine if element_size is None else patch_count(vertices, element_size)
     quick = itemsize * coarse * coarse / 2  # every pair, no padding: below the real bound
-    if quick > HOPELESS_RATIO * available:
+    if dense and quick > HOPELESS_RATIO * available:
         counts = patch_count(vertices, size if element_size is None else element_size, group)
         est = OperatorEstimate(int(coarse), int(-(-coarse // max_block)),
                                int((coarse / max_block) ** 2 / 2), int(quick), int(quick),
@@ -329,3 +332,25 @@ def check_before_meshing(vertices, group, size: float, *, element_size: float | 
                               group_counts=None if counts.sum() > 1e7 else counts.astype(np.int64),
                               max_block=max_block, itemsize=itemsize,
                               patch_size=None if element_size is not None else size)
+
+
+def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int = 4,
+                         available: int | None = None, file=None) -> OperatorEstimate:
+    """Bound the ray-sampled operator (``_sampled.py``) before its first ray, or refuse it.
+
+    Every ray a distinct link is the most it can store: ``(8 + itemsize)`` bytes (two int32
+    indices and the weight) × rays × patches; the peak is twice that (the host arrays and
+    their device copy while the operator is assembled). Raises :class:`SolveError` naming the
+    ``rays_per_patch`` that would fit."""
+    available = available_memory_bytes() if available is None else int(available)
+    stored = (8 + itemsize) * int(n_patches) * int(rays_per_patch)
+    est = OperatorEstimate(int(n_patches), 1, 0, stored, 2 * stored, visible_only=False)
+    if est.peak_bytes > available:
+        fit = int(0.9 * available / (2 * (8 + itemsize) * max(int(n_patches), 1)))
+        fix = (f"set [solver] rays_per_patch ≤ {fit:,}" if fit >= 16 else
+               "set a larger [solver] patch_size (fewer patches)")
+        raise SolveError(
+            f"the sampled transport of {n_patches:,} patches × {rays_per_patch:,} rays would "
+            f"need up to {_gib(est.peak_bytes)}, and {_gib(available)} of memory is "
+            f"available: {fix}", file=file, key="solver.rays_per_patch")
+    return est

@@ -29,6 +29,7 @@ __all__ = [
     "DenseBucket",
     "Bucket",
     "LowRankBucket",
+    "SampledBucket",
     "Info",
     "TransportOperator",
     "ReflectionOperator",
@@ -48,15 +49,21 @@ class AbstractBucket(eqx.Module):
     # they are not declared here, since an annotation in an equinox Module's body would make it
     # a (leading) field of every subclass and reorder their constructors.
     kind: eqx.AbstractClassVar[str]
+    #: Whether the bucket's part of G is symmetric (blocks serve both directions); a sampled
+    #: bucket is not (ray estimates of A_i F_ij and A_j F_ji differ), so ``apply`` takes
+    #: ``transpose`` and ``todense`` adds no mirror image.
+    symmetric: ClassVar[bool] = True
 
     @abc.abstractmethod
-    def apply(self, xext: Array, out: Array, only_block=None, block_of=None) -> Array:
+    def apply(self, xext: Array, out: Array, only_block=None, block_of=None,
+              transpose: bool = False) -> Array:
         """``out += G_bucket @ xext`` (both directions for off-diagonal pairs).
 
         ``xext``: the vector with the zero padding patch appended. With ``only_block``, chunks
         with no pair touching that block are skipped (``lax.cond``): the product with a vector
         zero outside the block, at the cost of its pairs only; ``block_of`` is each patch's
-        block, −1 for the padding patch.
+        block, −1 for the padding patch. ``transpose``: ``Gᵀ`` instead (the same for a
+        symmetric bucket).
         """
 
     @abc.abstractmethod
@@ -90,7 +97,7 @@ class DenseBucket(AbstractBucket):
     chunk: int = eqx.field(static=True)
     kind: ClassVar[str] = "dense"
 
-    def apply(self, xext, out, only_block=None, block_of=None):
+    def apply(self, xext, out, only_block=None, block_of=None, transpose=False):
         n, sa, sb = self.blocks.shape
         steps = n // self.chunk
         d = self.blocks.reshape(steps, self.chunk, sa, sb)
@@ -153,7 +160,7 @@ class LowRankBucket(AbstractBucket):
     diagonal: ClassVar[bool] = False  # type: ignore[misc]
     kind: ClassVar[str] = "lowrank"
 
-    def apply(self, xext, out, only_block=None, block_of=None):
+    def apply(self, xext, out, only_block=None, block_of=None, transpose=False):
         n, sa, r = self.u.shape
         sb = self.v.shape[1]
         steps = n // self.chunk
@@ -200,15 +207,62 @@ class Info(dict):
         return hash(json.dumps(self, sort_keys=True, default=str))
 
 
+class SampledBucket(AbstractBucket):
+    """Ray-sampled links of ``G = A F``, one entry per (receiver, sender) pair a ray joined.
+
+    ``weight[k] = A_i · hits(i → j) / N`` (m²) for ``i = recv[k]``, ``j = src[k]``, N the rays
+    cast from patch i (``_sampled.py``); sorted by receiver, padded to whole chunks with zero
+    weights on the padding patch. Not symmetric: the estimates of ``A_i F_ij`` and
+    ``A_j F_ji`` come from different rays, so ``Gᵀ`` swaps the index arrays.
+    """
+
+    weight: Float[Array, " n"]
+    recv: Int[Array, " n"]
+    src: Int[Array, " n"]
+    chunk: int = eqx.field(static=True)
+    diagonal: ClassVar[bool] = False  # type: ignore[misc]
+    symmetric: ClassVar[bool] = False
+    kind: ClassVar[str] = "sampled"
+
+    def apply(self, xext, out, only_block=None, block_of=None, transpose=False):
+        # only_block is a skip of work, not a different product (x is zero outside the
+        # block): links are not grouped by block, so every chunk is computed
+        steps = self.weight.shape[0] // self.chunk
+        w = self.weight.reshape(steps, self.chunk)
+        r = self.recv.reshape(steps, self.chunk)
+        s = self.src.reshape(steps, self.chunk)
+        if transpose:
+            r, s = s, r
+
+        def body(acc, xs):
+            wk, rk, sk = xs
+            contrib = wk.astype(xext.dtype).reshape((-1,) + (1,) * (xext.ndim - 1)) * xext[sk]
+            return acc.at[rk].add(contrib, indices_are_sorted=not transpose), None
+
+        out, _ = jax.lax.scan(body, out, (w, r, s))
+        return out
+
+    def todense(self):
+        return np.asarray(self.weight, np.float64).reshape(-1, 1, 1)
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.weight.nbytes + self.recv.nbytes + self.src.nbytes)
+
+    @property
+    def dtype(self) -> np.dtype:
+        return np.dtype(self.weight.dtype)
+
+
 @eqx.filter_jit
-def _gmul(op: TransportOperator, x, only_block):
+def _gmul(op: TransportOperator, x, only_block, transpose=False):
     shape = x.shape
     x2 = x.reshape(shape[0], -1)
     xext = jnp.concatenate([x2, jnp.zeros((1, x2.shape[1]), x2.dtype)])
     out = jnp.zeros_like(xext)
     block_of = jnp.concatenate([op.block_of, jnp.full((1,), -1, op.block_of.dtype)])
     for bk in op.buckets:
-        out = bk.apply(xext, out, only_block, block_of)
+        out = bk.apply(xext, out, only_block, block_of, transpose)
     return out[:-1].reshape(shape)
 
 
@@ -226,9 +280,11 @@ class TransportOperator(eqx.Module):
     n_blocks: int = eqx.field(static=True)
     info: Info = eqx.field(static=True)
 
-    def gmul(self, x: Float[Array, "patches ..."], only_block=None) -> Float[Array, "patches ..."]:
-        """``G x`` with ``G = diag(A) F`` symmetric (m² × unit of x)."""
-        return _gmul(self, jnp.asarray(x), only_block)
+    def gmul(self, x: Float[Array, "patches ..."], only_block=None,
+             transpose: bool = False) -> Float[Array, "patches ..."]:
+        """``G x`` with ``G = diag(A) F`` (m² × unit of x); symmetric unless sampled, and
+        ``transpose`` gives ``Gᵀ x``."""
+        return _gmul(self, jnp.asarray(x), only_block, bool(transpose))
 
     def matmul_from_block(self, x, block) -> Array:
         """``F x`` for x zero outside ``block`` (a traced int is fine): Southwell's shot."""
@@ -243,7 +299,7 @@ class TransportOperator(eqx.Module):
 
     def rmatmul(self, x: Float[Array, "patches ..."]) -> Float[Array, "patches ..."]:
         """``Fᵀ x``."""
-        return self.gmul(x / self._area(x))
+        return self.gmul(x / self._area(x), transpose=True)
 
     def row_sums(self) -> Float[Array, " patches"]:
         """``Σ_j F_ij``: 1 in a closed enclosure; ``1 − row sum`` is the fraction escaping."""
@@ -256,6 +312,9 @@ class TransportOperator(eqx.Module):
         for bk in self.buckets:
             d = bk.todense()
             r, s = np.asarray(bk.recv), np.asarray(bk.src)
+            if not bk.symmetric:  # one link per entry (sampled): no mirror image
+                np.add.at(g, (r, s), d.reshape(-1))
+                continue
             for k in range(len(d)):
                 g[np.ix_(r[k], s[k])] += d[k]
                 if not bk.diagonal:
@@ -276,6 +335,11 @@ class TransportOperator(eqx.Module):
     def lowrank_nbytes(self) -> int:
         """Bytes in low-rank buckets (the compressed far field)."""
         return int(sum(bk.nbytes for bk in self.buckets if bk.kind == "lowrank"))
+
+    @property
+    def sampled_nbytes(self) -> int:
+        """Bytes in ray-sampled buckets (``[solver] transport = "sampled"``)."""
+        return int(sum(bk.nbytes for bk in self.buckets if bk.kind == "sampled"))
 
 
 # -- K = ρF as a lineax operator ------------------------------------------------------------------

@@ -39,15 +39,16 @@ import numpy as np
 
 from .._atomic import atomic_path
 from ..errors import OutputError
-from ._operator import Bucket, Info, LowRankBucket, TransportOperator
+from ._operator import Bucket, Info, LowRankBucket, SampledBucket, TransportOperator
 
 __all__ = [
     "FORMAT", "SECRET_ENV", "OperatorFileError", "cache_secret", "read_operator", "secret_path",
     "write_operator",
 ]
 
-FORMAT = "lumijax.transport/6"  # 3: second-order far-field kernel; 4: shadowed low rank;
-# 5: hierarchical far field (cluster pairs); 6: keyed HMAC tag, header validated on load
+FORMAT = "lumijax.transport/7"  # 3: second-order far-field kernel; 4: shadowed low rank;
+# 5: hierarchical far field (cluster pairs); 6: keyed HMAC tag, header validated on load;
+# 7: ray-sampled links (kind "sampled")
 """Container and operator format. Bump it whenever the file layout *or the form-factor maths*
 change: it is part of the cache key and of every file's header, and a file of another format is
 ignored (rebuilt), never read."""
@@ -57,6 +58,7 @@ _ALIGN = 64
 _FIELDS = {
     "dense": ("blocks", "recv", "src", "recv_block", "src_block"),
     "lowrank": ("u", "v", "recv", "src", "recv_block", "src_block"),
+    "sampled": ("weight", "recv", "src"),
 }
 _FLOATS = ("<f4", "<f8")  # the only dtypes a stored value array may have
 _INTS = ("<i4", "<i8")  # ... and an index array
@@ -268,12 +270,17 @@ def _table(head: dict, payload: int, path: Path) -> dict[str, tuple[int, np.dtyp
     for k, b in enumerate(buckets):
         _check(isinstance(b, dict) and set(b) == {"kind", "diagonal", "chunk"},
                f"bucket {k} is not {{kind, diagonal, chunk}}", path)
-        _check(b["kind"] in _FIELDS, f"bucket {k}: kind is not 'dense' or 'lowrank'", path)
+        _check(b["kind"] in _FIELDS, f"bucket {k}: kind is not 'dense', 'lowrank' or "
+               "'sampled'", path)
         _check(isinstance(b["diagonal"], bool), f"bucket {k}: 'diagonal' is not true/false", path)
         _check(b["kind"] == "dense" or not b["diagonal"],
-               f"bucket {k}: a low-rank bucket cannot be diagonal", path)
+               f"bucket {k}: a {b['kind']} bucket cannot be diagonal", path)
         _check(_is_int(b["chunk"]) and b["chunk"] >= 1,
                f"bucket {k}: 'chunk' is not a whole number >= 1", path)
+        if b["kind"] == "sampled":  # one link per entry: every array is a flat list
+            want.update({f"b{k}_{f}": (_FLOATS if f == "weight" else _INTS, 1)
+                         for f in _FIELDS["sampled"]})
+            continue
         for f in _FIELDS[b["kind"]]:
             want[f"b{k}_{f}"] = ((_FLOATS, 3) if f in ("blocks", "u", "v") else
                                  (_INTS, 2) if f in ("recv", "src") else (_INTS, 1))
@@ -313,6 +320,21 @@ def _all_finite(a: np.ndarray) -> bool:
 def _in_range(a: np.ndarray, lo: int, hi: int) -> bool:
     """Every value in [lo, hi] (an empty array is in range)."""
     return a.size == 0 or (int(a.min()) >= lo and int(a.max()) <= hi)
+
+
+def _sampled_bucket(f: dict, chunk: int, k: int, n_p: int, path: Path) -> SampledBucket:
+    """A sampled bucket's arrays, checked as the block buckets' are: one length, whole
+    chunks, every patch index in ``0..n_patches`` (the padding patch), weights finite and
+    non-negative (a weight is area × a hit fraction)."""
+    n = f["weight"].shape[0]
+    _check(f["recv"].shape == (n,) and f["src"].shape == (n,),
+           f"bucket {k}: index arrays do not match the weights' length", path)
+    _check(n % chunk == 0, f"bucket {k}: {n} links are not whole chunks of {chunk}", path)
+    _check(_in_range(f["recv"], 0, n_p) and _in_range(f["src"], 0, n_p),
+           f"bucket {k}: a patch index outside 0..n_patches", path)
+    _check(_all_finite(f["weight"]) and (n == 0 or float(f["weight"].min()) >= 0),
+           f"bucket {k}: weights must be finite and >= 0", path)
+    return SampledBucket(*(jnp.asarray(f[name]) for name in _FIELDS["sampled"]), chunk=chunk)
 
 
 def read_operator(path: str | Path, *, key: str | None = None,
@@ -375,6 +397,9 @@ def read_operator(path: str | Path, *, key: str | None = None,
     buckets = []
     for k, b in enumerate(head["buckets"]):
         f = {name: arr(f"b{k}_{name}") for name in _FIELDS[b["kind"]]}
+        if b["kind"] == "sampled":
+            buckets.append(_sampled_bucket(f, b["chunk"], k, n_p, path))
+            continue
         if b["kind"] == "lowrank":
             (n, sa, r), (nv, sb, rv) = f["u"].shape, f["v"].shape
             _check(nv == n and rv == r, f"bucket {k}: u and v disagree in count or rank", path)

@@ -134,13 +134,25 @@ class RayCaster:
         directions: Float[np.ndarray, "rays 3"],
     ) -> tuple[Int[np.ndarray, " rays"], Float[np.ndarray, " rays"]]:
         """The first triangle hit along each ray (−1 for none) and its distance (inf for none)."""
+        tri, dist, _ = self.first_hit_uv(origins, directions)
+        return tri, dist
+
+    def first_hit_uv(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        directions: Float[np.ndarray, "rays 3"],
+    ) -> tuple[Int[np.ndarray, " rays"], Float[np.ndarray, " rays"], Float[np.ndarray, "rays 2"]]:
+        """:meth:`first_hit` and the hit's barycentric ``(u, v)`` in its triangle (float32, as
+        Embree computes them: the point is ``v0 + u (v1 − v0) + v (v2 − v0)``; 0 for none), so
+        a caller mapping hits to sub-triangles needs no hit point."""
         origins = np.broadcast_to(np.asarray(origins, np.float64), np.shape(directions))
         directions = np.asarray(directions, np.float64)
         n = len(directions)
         tri = np.full(n, -1, dtype=np.int64)
         dist = np.full(n, np.inf)
+        uv = np.zeros((n, 2), np.float32)
         if self._scene is None or n == 0:
-            return tri, dist
+            return tri, dist, uv
         for s in range(0, n, _CHUNK):
             d = directions[s : s + _CHUNK]
             d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -153,7 +165,9 @@ class RayCaster:
             hit = prim >= 0
             tri[s : s + _CHUNK] = np.where(hit, prim, -1)
             dist[s : s + _CHUNK] = np.where(hit, t + self.epsilon, np.inf)
-        return tri, dist
+            uv[s : s + _CHUNK, 0] = np.where(hit, res["u"], 0)
+            uv[s : s + _CHUNK, 1] = np.where(hit, res["v"], 0)
+        return tri, dist, uv
 
 
 def _unpickled_caster(key: str, triangles: np.ndarray) -> RayCaster:
