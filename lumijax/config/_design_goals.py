@@ -16,9 +16,11 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 __all__ = ["ConstraintConfig", "DesignObjective", "ConstrainedMethod", "CRITERIA",
            "CRITERION_SENSE", "GLARE_CRITERIA"]
 
-#: ``objective`` of a constrained design: the installed power in use (W, Σ dimmer × power_w)
-#: or the target-map misfit of the grids with a ``target_csv``.
-DesignObjective = Literal["power", "misfit"]
+#: ``objective`` of a constrained design: the installed power in use (W, Σ dimmer × power_w),
+#: the annual energy LENI of EN 15193-1 (kWh/(m²·a), from ``[compliance.energy]``'s hours and
+#: factors and its power model: input watts, standby, dimming curves) or the target-map misfit
+#: of the grids with a ``target_csv``.
+DesignObjective = Literal["power", "leni", "misfit"]
 #: ``method``: scipy's SLSQP or trust-constr, fed by JAX gradients and Jacobians.
 ConstrainedMethod = Literal["slsqp", "trust-constr"]
 

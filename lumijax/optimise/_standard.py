@@ -36,6 +36,7 @@ from ._constraints import (
 )
 from ._glare_constraint import GLARE_UNITS, GlareConstraint
 from ._infeasible import explain_infeasible, find_feasible
+from ._leni import leni_objective
 from ._objective import Objective
 from ._surface_constraint import surface_constraints
 
@@ -309,14 +310,20 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
                              params=params,
                              surfaces=None if results.glare is None else results.glare.surfaces)
     constraints = tuple(c for _, c in made)
-    if ocfg.objective == "power":
+    if ocfg.objective in ("power", "leni"):
         if not constraints:
-            raise ConfigError("a least-power design needs a requirement: with none, every "
-                              "network off is the answer (give a grid limit or "
+            raise ConfigError(f"a least-{ocfg.objective} design needs a requirement: with "
+                              "none, every network off is the answer (give a grid limit or "
                               "[[optimise.constraints]])", file=cfg.source,
                               key="optimise.objective")
         objective, unit = power, "W"
         scale = float(np.sum(setup.power)) or 1.0
+        if ocfg.objective == "leni":
+            objective, unit = leni_objective(study, ocfg.variables), "kWh/(m²·a)"
+            # the LENI of every network at full output: the solver sees O(1) values
+            scale = float(objective(DesignLight(jnp.zeros(0), None,
+                                                jnp.ones(len(setup.power)),
+                                                jnp.zeros(0)))) or 1.0
     else:
         targets = [g for g in goals if g.target is not None and g.weight > 0]
         if not targets:
@@ -392,8 +399,7 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
     constrained = {
         "verdict": verdict, "objective": ocfg.objective, "unit": unit,
         "objective_start": start_objective,
-        "objective_end": float(objective(light)) if ocfg.objective == "power" else float(
-            objective(light)),
+        "objective_end": float(objective(light)),
         "method": ocfg.method, "smoothing": eps, "tolerance": tol,
         "violation": float(best.violation), "iterations": int(best.iterations),
         "evaluations": int(best.evaluations),

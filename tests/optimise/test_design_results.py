@@ -16,6 +16,7 @@ import pytest
 import lumijax
 from lumijax import Design
 from lumijax.design import traverse
+from lumijax.optimise import optimise
 from lumijax.optimise._models import build_aim_light
 
 from .conftest import facade_text
@@ -108,7 +109,7 @@ def test_every_reader_shows_the_fitted_dimmers(facade_dir, facade_results, tmp_p
     path = facade_dir / "readers.toml"
     path.write_text(facade_text(grid_extra="target_lux = 20"), "utf-8")
     study = lumijax.load_study(path)
-    fit = lumijax.optimise(study, facade_results[1])
+    fit = optimise(study, facade_results[1])
     fitted = fit.design.dimmer_of()
     assert fitted != study.design.dimmer_of()
     res = fit.results

@@ -14,6 +14,7 @@ from scipy.optimize import linprog
 import lumijax
 from lumijax import ConfigError
 from lumijax.cli import main
+from lumijax.optimise import optimise
 from tests.helpers import box_room
 
 SOLVER = "indirect = false\nspectral_samples = 0\ncache = false\nprecision = \"float64\""
@@ -46,7 +47,7 @@ def _study(d, name, **kw):
 def test_least_power_meets_the_constraints_on_the_exact_light(room):
     d, _, results = room
     study = _study(d, "lp", grid_extra="target_lux = 20\nmin_lux = 13")
-    opt = lumijax.optimise(study, results)
+    opt = optimise(study, results)
     rec = opt.constrained
     assert rec["verdict"] == "met"
     a = results["floor"].by_network_lux  # the computed light, at dimmer 1 per network
@@ -67,7 +68,7 @@ def test_least_power_meets_the_constraints_on_the_exact_light(room):
     assert active and all("costs" in r["price_sentence"] for r in active)
     avg = rows["avg"]
     if avg["active"]:
-        again = lumijax.optimise(study, results, constraints=[
+        again = optimise(study, results, constraints=[
             {"criterion": "avg", "grid": "floor", "min": 20.0 + avg["price_step"]}])
         real = again.constrained["objective_end"] - rec["objective_end"]
         assert avg["price"] == pytest.approx(real, rel=0.05)
@@ -94,7 +95,7 @@ def test_infeasible_is_an_answer_from_the_cli(room, capsys):
     assert any("more flux on network" in s for s in conflict[0]["needed"])
 
 
-@pytest.mark.parametrize(("grid_extra", "optimise", "key", "match"), [
+@pytest.mark.parametrize(("grid_extra", "settings", "key", "match"), [
     ("min_lux = 30", 'objective = "power"\n[[optimise.constraints]]\ncriterion = "max"\n'
      'grid = "floor"\nmax = 20', "grids[0].min_lux", "no design can meet both"),
     ("", 'objective = "power"\n[[optimise.constraints]]\ncriterion = "avg"\ngrid = "desk"\n'
@@ -107,10 +108,10 @@ def test_infeasible_is_an_answer_from_the_cli(room, capsys):
      "nothing can change"),
     ("min_lux = 5", 'objective = "misfit"', "optimise.objective", "needs a grid"),
 ])
-def test_bad_constraints_are_named_by_key(room, grid_extra, optimise, key, match):
+def test_bad_constraints_are_named_by_key(room, grid_extra, settings, key, match):
     d, _, results = room
     with pytest.raises(ConfigError, match=match) as err:  # when it loads, or when it is solved
-        lumijax.optimise(_study(d, "bad", grid_extra=grid_extra, optimise=optimise), results)
+        optimise(_study(d, "bad", grid_extra=grid_extra, optimise=settings), results)
     assert err.value.key == key
 
 
@@ -138,7 +139,7 @@ def test_multiple_starts_agree_on_a_convex_design(room):
     d, _, results = room
     study = _study(d, "starts", grid_extra="target_lux = 20\nmin_lux = 13",
                    optimise='objective = "power"\nstarts = 3\nseed = 4')
-    rec = lumijax.optimise(study, results).constrained
+    rec = optimise(study, results).constrained
     assert rec["starts"]["count"] == 3 and rec["starts"]["feasible"] == 3
     assert rec["starts"]["agreed"] == 3
     objs = rec["starts"]["objectives"]

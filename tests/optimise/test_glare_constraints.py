@@ -30,6 +30,7 @@ from helpers import (
 
 import lumijax
 from lumijax.errors import ConfigError
+from lumijax.optimise import optimise
 from lumijax.photometry import LuminousOpening, isotropic, spot, write_ies
 
 jax.config.update("jax_enable_x64", True)
@@ -103,10 +104,10 @@ def test_gr_ceiling_binds_and_is_met(room):
     study, results = room
     eavg, veil, env = _per_network(results)
     assert veil[1] == 0.0 and veil[0] > 0  # B is behind the eye: no veil, only surroundings
-    free = lumijax.optimise(study, results)
+    free = optimise(study, results)
     gr_free = _gr(np.asarray(free.design.dimmers), veil, env)
     gr_max = round(gr_free - 3.0, 1)  # a ceiling below the free design's GR: it must bind
-    opt = lumijax.optimise(study, results, constraints=[
+    opt = optimise(study, results, constraints=[
         {"criterion": "gr", "observer": "desk", "max": gr_max}])
     rec = opt.constrained
     assert rec["verdict"] == "met", rec
@@ -130,20 +131,20 @@ def test_gr_ceiling_binds_and_is_met(room):
 def test_glare_constraint_names_its_key(room):
     study, results = room
     with pytest.raises(ConfigError, match="no observer named 'desks'") as e:
-        lumijax.optimise(study, results, constraints=[
+        optimise(study, results, constraints=[
             {"criterion": "ugr", "observer": "desks", "max": 19}])
     assert e.value.key == "optimise.constraints[0].observer"
     with pytest.raises(ConfigError, match="not 'grid'") as e:
-        lumijax.optimise(study, results, constraints=[
+        optimise(study, results, constraints=[
             {"criterion": "ugr", "grid": "floor", "max": 19}])
     assert "constraints" in e.value.key
     with pytest.raises(ConfigError, match="has no road") as e:
-        lumijax.optimise(study, results, constraints=[
+        optimise(study, results, constraints=[
             {"criterion": "ti", "observer": "desk", "max": 10}])
     assert e.value.key == "optimise.constraints[0].observer"
     without = dataclasses.replace(results, glare=None)  # as a study without observers
     with pytest.raises(ConfigError, match="no \\[\\[observers\\]\\]") as e:
-        lumijax.optimise(study, without, constraints=[{"criterion": "gr", "max": 45}])
+        optimise(study, without, constraints=[{"criterion": "gr", "max": 45}])
     assert e.value.key == "optimise.constraints[0].criterion"
 
 

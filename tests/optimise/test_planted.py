@@ -11,7 +11,7 @@ from scipy.optimize import lsq_linear
 
 import lumijax
 from lumijax import ConfigError, config
-from lumijax.optimise import SOLVERS, DimmerLight, Objective, minimise
+from lumijax.optimise import SOLVERS, DimmerLight, Objective, minimise, optimise
 from lumijax.optimise._optimise import _residuals
 from lumijax.optimise._targets import GridGoal
 
@@ -56,7 +56,7 @@ def test_dimmers_recovered_from_a_planted_map(facade_dir, facade_results):
     path = facade_dir / "dimmers.toml"
     path.write_text(facade_text(grid_extra='target_csv = "dimmer_target.csv"'), "utf-8")
     s = lumijax.load_study(path)
-    opt = lumijax.optimise(s, results, tolerance=1e-12)
+    opt = optimise(s, results, tolerance=1e-12)
     got = np.array([opt.dimmers["n0"], opt.dimmers["n1"]])
     np.testing.assert_allclose(got, truth, atol=1e-3)
     assert not opt.unmet
@@ -90,7 +90,7 @@ def test_aims_and_dimmers_recovered_from_a_planted_map(facade_dir, facade_result
     # the fitted design is lit by scene.with_design, never by writing and parsing TOML
     monkeypatch.setattr(config, "parse_config", refuse)
     monkeypatch.setattr(config, "load_config", refuse)
-    opt = lumijax.optimise(s, results)
+    opt = optimise(s, results)
     monkeypatch.undo()
     for name, (t, p) in zip(["s0", "s1", "s2", "s3"], true_aims, strict=True):
         assert opt.aims[name]["tilt"] == pytest.approx(t, abs=0.5), opt.aims
@@ -116,7 +116,7 @@ def test_infeasible_target_says_by_how_much_and_keeps_the_best(facade_dir, facad
     full = results["wall"].at_dimmers(np.ones(2)).mean()
     path = facade_dir / "bright.toml"
     path.write_text(facade_text(grid_extra=f"target_lux = {10 * full:.6g}"), "utf-8")
-    opt = lumijax.optimise(lumijax.load_study(path), results)
+    opt = optimise(lumijax.load_study(path), results)
     assert opt.dimmers == pytest.approx({"n0": 1.0, "n1": 1.0}, abs=1e-6)
     [t] = opt.targets
     assert not t["met"] and t["achieved"] == pytest.approx(full, rel=1e-9)
@@ -134,7 +134,7 @@ def test_limits_are_met_when_feasible(facade_dir, facade_results):
     path.write_text(facade_text(grid_extra=f"max_lux = {0.5 * emax:.6g}",
                                 optimise="energy_weight = 0.001\nconstraint_weight = 1000"),
                     "utf-8")
-    opt = lumijax.optimise(lumijax.load_study(path), results, tolerance=1e-12)
+    opt = optimise(lumijax.load_study(path), results, tolerance=1e-12)
     after = opt.results["wall"].stats["max"]
     assert after <= 0.5 * emax * 1.02
     assert not opt.unmet
@@ -171,7 +171,7 @@ def test_target_map_must_fit_the_grid(facade_dir, facade_results):
         "x,y,z,lux\n" + "\n".join(f"{a},{b},{c},10" for a, b, c in moved) + "\n", "utf-8")
     path.write_text(facade_text(grid_extra='target_csv = "moved.csv"'), "utf-8")
     with pytest.raises(ConfigError, match="off by 0.5 m") as e:
-        lumijax.optimise(lumijax.load_study(path), results)
+        optimise(lumijax.load_study(path), results)
     assert e.value.key == "grids[0].target_csv" and e.value.line == 2
 
 
@@ -185,7 +185,7 @@ def test_a_target_level_is_met_by_the_grid_average(facade_dir, facade_results):
     path = facade_dir / "level.toml"
     path.write_text(facade_text(dimmers=(0.0, 0.9), grid_extra=f"target_lux = {wanted:.9g}"),
                     "utf-8")
-    opt = lumijax.optimise(lumijax.load_study(path), results, tolerance=1e-12, dimmer_min=0.0,
+    opt = optimise(lumijax.load_study(path), results, tolerance=1e-12, dimmer_min=0.0,
                            variables=["dimmers"])
     assert opt.results["wall"].stats["avg"] == pytest.approx(wanted, rel=1e-4)
     assert opt.results["wall"].stats["u0"] < 0.5  # peaky: a pointwise fit would settle lower
