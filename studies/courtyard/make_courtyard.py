@@ -86,6 +86,7 @@ class Courtyard:
     grid_spacing: float = 1.0          # wall points (m)
     ground_spacing: float = 2.0
     optimise: bool = True
+    gr_max: float | None = None        # [optimise]: the visitors' GR ceiling (power objective)
 
     @property
     def side(self) -> float:
@@ -413,6 +414,15 @@ def study_toml(c: Courtyard, files: dict[str, str], generator_args: str) -> str:
         # no global patch-luminance ceiling: the stone right next to a fitting is always hot;
         # the facade limit is on the wall grids (max_luminance_cdm2 with their reflectance)
         out += ["", "[optimise]", 'variables = ["dimmers"]']
+        if c.gr_max is not None:  # the visitors' GR ceiling: a constrained design
+            out += ["# design to a standard: the least power in use that meets every grid's "
+                    "limits and keeps each",
+                    "# visitor's GR_max over its fan within EN 12464-2's GR_L = 50 (Table "
+                    "5.1.1, walkways for",
+                    "# pedestrians); GR replaces the old proxy, max_lux = 10 of vertical lux at "
+                    "eye height",
+                    'objective = "power"', "[[optimise.constraints]]", 'criterion = "gr"',
+                    f"max = {c.gr_max:g}"]
     return "\n".join(out) + "\n"
 
 
@@ -500,8 +510,10 @@ def _grids(c: Courtyard) -> list[str]:
             eyes.append((p[0], p[1], 1.6))
             nrm = R @ np.array([0.0, 1.0])
             normals.append((nrm[0], nrm[1], 0.0))
-    out += ["[[grids]]", 'name = "paths-eye"', 'kind = "points"', "max_lux = 10",
-            "# vertical illuminance at a visitor's eye walking in: keep glare down",
+    out += ["[[grids]]", 'name = "paths-eye"', 'kind = "points"',
+            "# vertical illuminance at a visitor's eye walking in (reported; the glare limit "
+            "is the",
+            "# observers' GR ceiling in [optimise])",
             f"points = {_points(eyes)}", f"normals = {_points(normals)}"]
     return out
 
@@ -515,7 +527,7 @@ DEFAULT = Courtyard(
     facades=("S", "E"), bays=6, floods_per_facade=4, paths_per_path=3,
     target_patches=1500, spectral_samples=6, gather_rays=128, grid_spacing=1.0,
     ground_spacing=1.5, dimmers={"wash": 0.8, "attic": 0.8, "columns": 1.0, "windows": 0.6,
-                                 "floods": 0.5, "paths": 0.7},
+                                 "floods": 0.5, "paths": 0.7}, gr_max=50.0,
 )
 FULL = Courtyard(
     name="Cour Carrée-like courtyard (full scale)",

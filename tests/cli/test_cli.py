@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import subprocess
 import sys
 
@@ -115,6 +116,16 @@ def test_demo_runs_the_bundled_study(tmp_path, capsys):
         assert (out / "images" / f"{name}.png").stat().st_size > 10_000
         assert res["grids"][name]["stats"]["avg"] > 0
     assert "S-wall" in capsys.readouterr().out
+    # the demo designs to a standard: least power under the grids' limits and a GR ceiling of
+    # 50 per visitor (EN 12464-2 Table 5.1.1); each visitor's worst GR is recomputed here from
+    # CIE 112 with the entry's own veiling and environment luminances, and is within it
+    con = res["optimisation"]["constrained"]
+    assert con["verdict"] == "met" and con["objective_end"] < con["objective_start"]
+    for name, obs in res["glare"].items():
+        gr = max(27 + 24 * math.log10(d["veiling_cdm2"] / (0.035 * d["environment_cdm2"]) ** 0.9)
+                 for d in obs["directions"] if d["veiling_cdm2"] > 0)
+        assert obs["worst"]["gr"]["value"] == pytest.approx(gr, abs=1e-3), name
+        assert gr <= 50 * (1 + 1e-3), name
 
 
 def test_a_one_point_grid_has_its_numbers_and_a_plan_not_a_blank_map(box_room, write_study,

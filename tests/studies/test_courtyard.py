@@ -137,3 +137,10 @@ def test_bundled_default_study_is_the_courtyard_corner():
         if hasattr(f, "file"):
             assert f.file.is_relative_to(data)  # shipped with the package
     assert study.config.optimise is not None and study.config.optimise.variables == ["dimmers"]
+    # glare is judged by the visitors' GR (EN 12464-2's GR_L 50 for walkways), not by a vertical
+    # illuminance at eye height: a constrained design with one GR ceiling for every observer
+    opt = study.config.optimise
+    assert opt.objective == "power"
+    assert [(c.criterion, c.observer, c.max) for c in opt.constraints] == [("gr", None, 50.0)]
+    assert next(g for g in study.config.grids if g.name == "paths-eye").max_lux is None
+    assert len(study.config.observers) == 4
