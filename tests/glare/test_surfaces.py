@@ -12,7 +12,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import lamp, material, observer, photometry, rectangle, study_text, table
+from helpers import (
+    lamp,
+    material,
+    observer,
+    photometry,
+    point_grid,
+    rectangle,
+    study_text,
+    table,
+)
 
 import lumijax
 from lumijax.errors import ConfigError
@@ -22,6 +31,7 @@ from lumijax.optimise._surface_constraint import surface_constraints
 RHO, FLUX, D = 0.6, 4000.0, 6.0
 I_CD = FLUX / (4 * math.pi)  # cd
 L_FOOT = RHO * I_CD / D ** 2 / math.pi  # cd/m², the wall's brightest point
+E_FLOOR = 5.0  # lx asked at the foot grid point
 
 
 def _text(limit):
@@ -35,14 +45,22 @@ def _text(limit):
         rectangle([-0.5, -1, 0.5], [0, 0, 1], [1, 0, 0], name="panel"),
         lamp("L", [0, D, 1], "n", "iso"),
         observer("eye", [0.3, 3.0, 1.4], direction=[0, -1, 0],
-                 max_luminance_cdm2={"wall": limit}))
+                 max_luminance_cdm2={"wall": limit}),
+        # 1 cm in front of the foot point: a floor for the constrained design below
+        point_grid("foot", [[0, 0.01, 1]], normals=[0, 1, 0], target_lux=E_FLOOR))
 
 
 @pytest.fixture(scope="module")
-def lit(tmp_path_factory):
+def studied(tmp_path_factory):
     d = tmp_path_factory.mktemp("surfaces")
     (d / "study.toml").write_text(_text(0.9 * L_FOOT))
-    return lumijax.compute(lumijax.load_study(d / "study.toml"), cache_dir=d / "cache")
+    study = lumijax.load_study(d / "study.toml")
+    return study, lumijax.compute(study, cache_dir=d / "cache")
+
+
+@pytest.fixture
+def lit(studied):
+    return studied[1]
 
 
 def test_wall_luminance_is_rho_e_over_pi_and_the_hidden_panel_is_not_seen(lit):
@@ -104,3 +122,21 @@ def test_the_report_lists_the_surface_and_its_unmet_limit(lit):
     cells = [c.split("</td>")[0] for c in row.split("<td>")[1:]]
     assert float(cells[0]) == pytest.approx(L_FOOT, rel=1e-2)  # max L, 3 digits
     assert float(cells[2]) == pytest.approx(0.9 * L_FOOT, rel=1e-2) and cells[3] == "✗"
+
+
+def test_a_surface_luminance_constraint_in_the_least_power_design(studied):
+    # one network: least power meets the foot point's floor exactly, α = E_FLOOR / E(foot),
+    # so the wall's brightest luminance is α L_FOOT = ρ E_FLOOR (5.99 / 6)² / π; the explicit
+    # ceiling (1.2 cd/m²) and the observer's own limit (0.9 L_FOOT) are both met
+    from lumijax.optimise import optimise
+
+    study, lit = studied
+    opt = optimise(study, lit, objective="power",
+                   constraints=[{"criterion": "surface_luminance", "surface": "wall",
+                                 "max": 1.2}])
+    con = opt.constrained
+    assert con["verdict"] == "met"
+    want = RHO * E_FLOOR * (5.99 / D) ** 2 / math.pi
+    assert [r["achieved"] for r in con["constraints"] if "luminance of 'wall'" in r["label"]] \
+        == pytest.approx([want, want], rel=2e-3)
+    assert all(r["met"] for r in con["constraints"])
