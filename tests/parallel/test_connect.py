@@ -1,0 +1,72 @@
+"""A scheduler address that does not answer, or is no address, is a clear error in seconds
+(Python API and command line); the executors map in order; batches cover their range once."""
+
+from __future__ import annotations
+
+import socket
+import time
+
+import pytest
+from helpers import box_room
+
+import lumijax
+from lumijax.cli import main
+from lumijax.parallel import CONNECT_TIMEOUT_S, ClusterError, LocalExecutor, batches, connect
+
+
+def _closed_port() -> int:
+    """A local port nothing listens on (bound, then released)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_a_scheduler_that_does_not_answer_is_refused_within_the_timeout():
+    address = f"tcp://127.0.0.1:{_closed_port()}"
+    t = time.perf_counter()
+    with pytest.raises(ClusterError) as e:
+        connect(address, timeout_s=2.0)
+    assert time.perf_counter() - t < 2.0 + 8.0  # the timeout, not a hang
+    assert address in e.value.message and e.value.key == "scheduler"
+    assert isinstance(e.value, lumijax.LumijaxError)
+
+
+@pytest.mark.parametrize("bad", ["localhost", "http://host:8786/x", "tcp://"])
+def test_a_malformed_address_names_the_expected_form(bad):
+    with pytest.raises(ClusterError, match="tcp://HOST:PORT"):
+        connect(bad)
+
+
+def test_the_command_line_refuses_an_unreachable_scheduler_without_a_traceback(
+        write_study, tmp_path, capsys):
+    cfg = write_study(box_room("target_patches = 50"))
+    address = f"tcp://127.0.0.1:{_closed_port()}"
+    t = time.perf_counter()
+    assert main(["run", str(cfg), "--out", str(tmp_path / "out"), "--scheduler", address]) == 1
+    assert time.perf_counter() - t < CONNECT_TIMEOUT_S + 10.0
+    err = capsys.readouterr().err
+    assert f"no Dask scheduler answered at {address}" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+
+
+def test_the_local_executor_maps_lazily_in_order():
+    seen = []
+
+    def f(x, *, k):
+        seen.append(x)
+        return x * k
+
+    out = LocalExecutor().map(f, [3, 1, 2], shared={"k": 10})
+    assert seen == []  # nothing runs before its result is asked for
+    assert next(out) == 30 and seen == [3]
+    assert list(out) == [10, 20]
+
+
+@pytest.mark.parametrize("n,parts", [(10, 3), (3, 8), (1, 1), (0, 4), (1000, 7)])
+def test_batches_cover_the_range_once_in_nearly_equal_parts(n, parts):
+    got = batches(n, parts)
+    assert [i for r in got for i in r] == list(range(n))
+    assert len(got) == min(n, parts)
+    if got:
+        sizes = [len(r) for r in got]
+        assert max(sizes) - min(sizes) <= 1
