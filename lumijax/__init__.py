@@ -12,6 +12,8 @@ reruns") — costs milliseconds, not the second and a half of importing JAX.
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING
 
 from ._version import __version__ as __version__
@@ -39,13 +41,13 @@ if TYPE_CHECKING:
 _LAZY = {
     "Study": "._study", "compute": "._study", "load_study": "._study",
     "Compliance": ".compliance", "Design": ".design", "Glare": ".glare", "Observer": ".glare",
-    "Optimisation": ".optimise", "optimise": ".optimise", "write_results": ".report",
+    "Optimisation": ".optimise", "write_results": ".report",
     "GridResult": ".results", "Results": ".results",
 }
 
 __all__ = [
     "__version__", "ConfigError", "GeometryError", "LumijaxError", "LumijaxWarning",
-    "OutputError", "PhotometryError", "SolveError", "SpectrumError", *_LAZY,
+    "OutputError", "PhotometryError", "SolveError", "SpectrumError", "optimise", *_LAZY,
 ]
 
 
@@ -59,4 +61,23 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | {"optimise"})
+
+
+class _Package(types.ModuleType):
+    """``lumijax.optimise`` is the function, as an eager ``from .optimise import optimise``
+    made it: importing the subpackage of the same name (``lumijax.optimise._x``) sets the
+    package's attribute to the subpackage, which this property ignores."""
+
+    @property
+    def optimise(self):
+        from .optimise import optimise
+
+        return optimise
+
+    @optimise.setter
+    def optimise(self, value) -> None:
+        pass  # the import system binding the subpackage: the name stays the function
+
+
+sys.modules[__name__].__class__ = _Package

@@ -29,6 +29,19 @@ def test_import_lumijax_loads_no_drawing_library():
     assert proc.stdout.strip() == "[]"
 
 
+def test_the_lazy_package_keeps_its_public_names():
+    # lumijax's names load on first use; `optimise` must stay the function even once its
+    # subpackage is imported (the import system rebinds a package attribute of that name)
+    code = ("import sys, lumijax.cli; jax_at_import = 'jax' in sys.modules; "
+            "import lumijax.optimise._optimise, lumijax; from lumijax.optimise import optimise; "
+            "print(jax_at_import, lumijax.optimise is optimise, callable(lumijax.compute), "
+            "lumijax.write_results.__module__, 'optimise' in dir(lumijax))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, env=dict(os.environ, JAX_PLATFORMS="cpu"))
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["False", "True", "True", "lumijax.report._write", "True"]
+
+
 def test_quick_writes_the_numbers_only_with_the_photometric_solve(write_study, tmp_path):
     cfg = write_study(ROOM)
     quick, full = tmp_path / "quick", tmp_path / "full"
