@@ -272,6 +272,15 @@ def _glare(study: Study, lighting, grids, design, *, shadows: bool, rays: int):
         surfaces = build_seen_surfaces(study.scene, observers, lighting.coarse.patches, names,
                                        limits=limits)
         radiosity = np.asarray(lighting.coarse.radiosity, np.float64)
+    elif any(oc.max_luminance_cdm2 for oc in study.config.observers):
+        import warnings
+
+        from .errors import LumijaxWarning
+
+        i = next(i for i, oc in enumerate(study.config.observers) if oc.max_luminance_cdm2)
+        warnings.warn(f"observers[{i}].max_luminance_cdm2: surface luminance needs the "
+                      "radiosity patches (inter-reflection on) and shadows; not evaluated",
+                      LumijaxWarning, stacklevel=3)
     return Glare(model, design, observers, surfaces=surfaces, radiosity=radiosity)
 
 

@@ -140,3 +140,12 @@ def test_a_surface_luminance_constraint_in_the_least_power_design(studied):
     assert [r["achieved"] for r in con["constraints"] if "luminance of 'wall'" in r["label"]] \
         == pytest.approx([want, want], rel=2e-3)
     assert all(r["met"] for r in con["constraints"])
+
+
+def test_a_limit_that_cannot_be_evaluated_warns_naming_the_key(studied):
+    from lumijax.errors import LumijaxWarning
+
+    study, _ = studied
+    with pytest.warns(LumijaxWarning, match=r"observers\[0\]\.max_luminance_cdm2"):
+        r = lumijax.compute(study, shadows=False)
+    assert "surfaces" not in r.glare.to_dict()["eye"]
