@@ -3,15 +3,20 @@ meeting each grid's Eavg floor (its target, else 60 % of the start's average) an
 (80 % of the start's) on the bundled demo study (``lumijax demo``'s courtyard corner), over
 the dimmers alone and over dimmers + aims (±5°).
 
-    python benchmarks/design.py [--quick] [--study PATH] [--aims]
+    python benchmarks/design.py [--quick] [--study PATH] [--aims] [--profile]
 
 Prints: variables, constrained steps (SLSQP), function evaluations, wall time of the design
 step (after the study's compute; its first call includes compilation, so the same design is
-timed again), the largest exact
-constraint violation at the end, the verdict and the objective before → after. Goal: dimmer-only
-designs under 2 s, aims under 5 minutes on this machine. ``--quick``
+timed again), the largest exact constraint violation at the end, the verdict and the objective
+before → after. Goal: dimmer-only designs under 2 s, aims under 5 minutes on this machine.
 ``--quick`` runs the optimiser tests' small facade instead (a smoke run, numbers not for the
-record).
+record). ``--profile`` prints cProfile's top functions (cumulative) of each first design call.
+
+Where the aims design's time went (demo, 230 re-aimed luminaires, 12 constraints, contended,
+docs/optimise.md): the Jacobian of the margins by ``vmap`` over reverse passes cost 23× the
+margins (the pair kernel's pull-back and the Krylov adjoint under ``vmap``); by the aim model's
+structured pull-back (``AimLight.linearise``) 2.4×. Compilation of the aim model (its pair
+kernels, tangents and pull-back) is a fixed cost of the first call.
 """
 
 from __future__ import annotations
@@ -38,7 +43,19 @@ def constraints_for(results, start_stats):
     return out
 
 
-def run(study_path: Path, *, aims: bool, quick: bool):
+def _profiled(fn, enabled):
+    if not enabled:
+        return fn()
+    import cProfile
+    import pstats
+
+    prof = cProfile.Profile()
+    out = prof.runcall(fn)
+    pstats.Stats(prof).sort_stats("cumulative").print_stats(15)
+    return out
+
+
+def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False):
     study = lumijax.load_study(study_path)
     t = time.perf_counter()
     results = lumijax.compute(study)
@@ -50,7 +67,7 @@ def run(study_path: Path, *, aims: bool, quick: bool):
     if aims:
         kw.update(tilt_range_deg=(-5.0, 5.0), pan_range_deg=(-5.0, 5.0))
     t = time.perf_counter()
-    opt = optimise(study, results, **kw)
+    opt = _profiled(lambda: optimise(study, results, **kw), profile)
     t_design = time.perf_counter() - t
     t = time.perf_counter()  # the same design again: what a designer's next try costs
     optimise(study, results, **kw)
@@ -68,6 +85,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--aims", action="store_true", help="also dimmers + aims")
+    ap.add_argument("--profile", action="store_true", help="cProfile the first design calls")
     ap.add_argument("--study", type=Path, default=default_study_path())
     args = ap.parse_args()
     if args.quick:  # the optimiser tests' small facade (4 spots, 2 networks), for a smoke run
@@ -88,7 +106,7 @@ def main():
           "design, again (s) | worst violation | verdict | power (W) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for aims in ([False, True] if args.aims else [False]):
-        r = run(args.study, aims=aims, quick=args.quick)
+        r = run(args.study, aims=aims, quick=args.quick, profile=args.profile)
         print(f"| {r['variables']} | {r['n_constraints']} | {r['steps']} | {r['evaluations']} "
               f"| {r['compute_s']:.1f} | {r['design_s']:.2f} | {r['again_s']:.2f} | "
               f"{r['violation']:.2e} | "

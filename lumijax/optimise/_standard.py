@@ -372,15 +372,19 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
         after = compute(study, design=design, cache_dir=cache_dir)
     light = exact_light(study, after, params)
     table, unmet = [], []
-    for (crit, c), v0, price, act in zip(made, start_values, best.prices, best.active,
-                                         strict=True):
+    # what the solver's light model says at the design (exact criteria): against the exact
+    # re-computation it measures the model's error (aim model; glare background at the start)
+    modelled = np.asarray(exact_values(problem, jnp.asarray(x_best)), np.float64)
+    for (crit, c), v0, vm, price, act in zip(made, start_values, modelled, best.prices,
+                                             best.active, strict=True):
         c = _at_results(c, after)
         v = float(c.value(light, None))
         margin = float(c.sense * (v - float(c.bound)) / c.scale)
         met = margin >= -tol
         row = dict(label=c.label, key=c.key, criterion=crit, relation=c.relation,
                    bound=float(c.bound), unit=c.unit, start=float(v0), achieved=v,
-                   margin=margin, met=bool(met), active=bool(act) and infeasibility is None)
+                   model=float(vm), margin=margin, met=bool(met),
+                   active=bool(act) and infeasibility is None)
         if infeasibility is None and act:
             step = price_step(crit, float(c.bound), c.sense)
             row["price_per_unit"] = float(price)
