@@ -85,18 +85,27 @@ class ComplianceModel(eqx.Module):
         d = jnp.asarray(dimmers)
         f = self.mf if maintained else jnp.ones_like(self.mf)
         out = {}
+        # per phase (before / after curfew), each grid's light and the glare ratings are
+        # computed once and shared by the criteria that read them (a building's areas all
+        # read one glare model: one evaluation, not one per area)
+        phases: dict[bool, dict] = {}
         for c in self.criteria:
             if c.spec is not None:
-                dd = self.post_curfew(d) if c.when == "after curfew" else d
-                out[c.key] = self._quantity(c.spec, dd, f)
+                post = c.when == "after curfew"
+                if post not in phases:
+                    phases[post] = {}
+                dd = self.post_curfew(d) if post else d
+                out[c.key] = self._quantity(c.spec, dd, f, phases[post])
         return out
 
-    def _quantity(self, spec: tuple, d, f):
+    def _quantity(self, spec: tuple, d, f, cache: dict):
         kind = spec[0]
         w = d * f
 
         def lux(name):
-            return w @ self.grids[name]
+            if name not in cache:
+                cache[name] = w @ self.grids[name]
+            return cache[name]
 
         if kind == "mean":
             return jnp.mean(lux(spec[1]))
@@ -125,7 +134,9 @@ class ComplianceModel(eqx.Module):
             return leni_kwh_per_m2(self.power.total_w(d, spec[1]), self.areas_m2[spec[2]],
                                    self.energy)
         if kind in ("ugr", "gr"):  # the worst over the area's observers' views
-            r = self.glare.ratings(self.design.replace(dimmers=w))
+            if ("glare",) not in cache:
+                cache[("glare",)] = self.glare.ratings(self.design.replace(dimmers=w))
+            r = cache[("glare",)]
             views = jnp.isin(self.glare.view_observer, jnp.asarray(spec[1]))
             return jnp.max(jnp.where(views, r.ugr if kind == "ugr" else r.gr, -jnp.inf))
         if kind == "constant":
