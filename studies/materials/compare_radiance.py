@@ -79,12 +79,13 @@ def _points():
 def lumijax_study(folder: Path, kind: str, patch_size: float, gather: int) -> Path:
     pane = (material("pane", 0.0, transmittance=GLASS_TN, kind="clear") if kind == "glass"
             else material("pane", OPAL_RHO, transmittance=OPAL_TAU, kind="diffuse"))
+    opening = [] if kind == "open" else [rectangle(*(list(a) for a in OPENING), "pane")]
     floor, wall = _points()
     text = study_text(
         table("study", name=f"materials-{kind}"), material("grey", RHO), pane,
         photometry("iso", "isotropic", FLUX), network("n"), lamp("L", list(LAMP)),
         *(rectangle(list(o), list(u), list(v), "grey") for o, u, v in _rects()),
-        rectangle(*(list(a) for a in OPENING), "pane"),
+        *opening,
         point_grid("floor", floor.tolist(), [0, 0, 1]),
         point_grid("wall", wall.tolist(), [-1, 0, 0]),
         table("solver", patch_size=patch_size, gather_rays=gather),
@@ -105,7 +106,9 @@ def radiance_scene(folder: Path, kind: str, r: float = 0.02) -> Path:
     radiance = FLUX / WHTEFFICACY / (4 * math.pi**2 * r**2)
     from lumijax.scene import internal_transmissivity
 
-    if kind == "glass":
+    if kind == "open":  # the reference for the opening alone: no pane at all
+        pane = ""
+    elif kind == "glass":
         tn = float(internal_transmissivity(GLASS_TN))
         pane = f"void glass pane\n0\n0\n3 {tn:.6f} {tn:.6f} {tn:.6f}\n"
     else:
@@ -122,7 +125,7 @@ def radiance_scene(folder: Path, kind: str, r: float = 0.02) -> Path:
     text = (f"void plastic grey\n0\n0\n5 {RHO} {RHO} {RHO} 0 0\n"
             f"void light bulb\n0\n0\n3 {radiance:.6g} {radiance:.6g} {radiance:.6g}\n"
             f"bulb sphere lamp\n0\n0\n4 {LAMP[0]} {LAMP[1]} {LAMP[2]} {r}\n"
-            + pane + "".join(polys) + _polygon("pane", "opening", *OPENING))
+            + pane + "".join(polys) + (_polygon("pane", "opening", *OPENING) if pane else ""))
     path = folder / f"{kind}.rad"
     path.write_text(text, encoding="utf-8")
     return path
@@ -148,13 +151,17 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="coarser patches, fewer rays")
     ap.add_argument("--out", type=Path, default=HERE / "RESULTS.md")
+    ap.add_argument("--cases", nargs="+", default=["glass", "opal", "open"],
+                    choices=["glass", "opal", "open"],
+                    help="open: the opening without a pane, to tell the pane's error from the "
+                         "opening's")
     args = ap.parse_args(argv)
     try:
         import pyradiance
     except ImportError:
         print("pyradiance is not installed: nothing to compare against")
         return 1
-    patch_size, gather = (0.3, 2048) if args.quick else (0.2, 4096)
+    patch_size, gather = (0.3, 2048) if args.quick else (0.25, 4096)
     direct = ["-ab", "0", "-dj", "0", "-ds", "0.02", "-dt", "0", "-dc", "1"]
     amb = (["-ab", "5", "-aa", "0.1", "-ar", "256", "-ad", "1024", "-as", "256", "-lw", "1e-4"]
            if args.quick else
@@ -162,7 +169,7 @@ def main(argv=None) -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        for kind in ("glass", "opal"):
+        for kind in args.cases:
             path = lumijax_study(folder, kind, patch_size, gather)
             t0 = time.perf_counter()
             res = lumijax.compute(lumijax.load_study(path))
