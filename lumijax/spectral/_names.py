@@ -122,10 +122,25 @@ def _lookup(reg: _Registry, name: str):
     return None
 
 
+def _equal_energy(name: str, kind: str) -> tuple[str, np.ndarray, np.ndarray, str] | None:
+    """CIE illuminant E exactly as colour-science ships it (100 at 360–830 nm every 5 nm), without
+    importing colour-science: every material's luminous reflectance is taken under it."""
+    if kind != "emission":
+        return None
+    key = normalise_name(name)
+    if key not in ("e", "ciee", "illuminante", "cieilluminante"):
+        return None
+    wl = np.arange(360.0, 831.0, 5.0)
+    return "E", wl, np.full(wl.shape, 100.0), "colour-science: SDS_ILLUMINANTS['E']"
+
+
 def resolve(name: str, kind: str) -> tuple[str, np.ndarray, np.ndarray, str]:
     """``(display name, wavelengths_nm, values, source)`` of a named spectrum of ``kind``."""
     if not isinstance(name, str) or not name.strip():
         raise SpectrumError(f"a spectrum name must be a non-empty string, got {name!r}")
+    fast = _equal_energy(name, kind)
+    if fast is not None:
+        return fast
     reg = _registry(kind)
     hit = _lookup(reg, name)
     if hit is None:

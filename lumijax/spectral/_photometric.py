@@ -27,19 +27,14 @@ __all__ = [
 #: Maximum luminous efficacy of photopic vision, lm/W (CIE; 683 lm/W at 540 THz).
 K_M = 683.002
 
-_PHOTOPIC = "CIE 1924 Photopic Standard Observer"
 _CMFS = "CIE 1931 2 Degree Standard Observer"
 
 
 @functools.cache
 def _v_table() -> tuple[np.ndarray, np.ndarray]:
-    from colour.colorimetry import SDS_LEFS_PHOTOPIC
+    from ._cie import observer_tables
 
-    sd = SDS_LEFS_PHOTOPIC[_PHOTOPIC]
-    wl = np.array(sd.wavelengths, dtype=np.float64)
-    v = np.array(sd.values, dtype=np.float64)
-    wl.setflags(write=False)
-    v.setflags(write=False)
+    wl, v, _ = observer_tables()
     return wl, v
 
 

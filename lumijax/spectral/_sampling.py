@@ -57,11 +57,11 @@ TRAINING_BOUNCES = (1, 3)
 @functools.cache
 def reference_grid() -> tuple[np.ndarray, np.ndarray]:
     """The 1 nm grid (360–830 nm) and the CIE 1931 2° CMFs on it, shape (3, 471), read-only."""
-    import colour
+    from ._cie import observer_tables
 
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    wl = np.array(cmfs.wavelengths, dtype=np.float64)
-    xyz = np.array(cmfs.values, dtype=np.float64).T.copy()
+    wl, _, cmf = observer_tables()
+    wl = wl.copy()
+    xyz = cmf.T.copy()
     wl.setflags(write=False)
     xyz.setflags(write=False)
     return wl, xyz
@@ -347,8 +347,16 @@ def _emission_weights(nodes: np.ndarray, cmf: np.ndarray, e_grid: np.ndarray, e_
 
 @functools.cache
 def _probes() -> tuple[Spectrum, ...]:
-    """The CIE 13.3 test colour samples: generic reflectances every segmentation trains on."""
-    return tuple(Spectrum.from_name(f"TCS{i:02d}", "reflectance") for i in range(1, 15))
+    """The CIE 13.3 test colour samples: generic reflectances every segmentation trains on (from
+    the shipped tables, the same as ``Spectrum.from_name("TCS01", "reflectance")``...)."""
+    from ._cie import test_colour_samples
+
+    wl, values = test_colour_samples()
+    return tuple(
+        Spectrum(wl, values[i - 1], "reflectance", f"TCS{i:02d}",
+                 source=f"colour-science: SDS_TCS['CIE 1995']['TCS{i:02d}']")
+        for i in range(1, 15)
+    )
 
 
 def segment(
@@ -396,7 +404,7 @@ def segment(
     if not ks or any(k < 1 for k in ks):
         raise SpectrumError(f"bounces must be positive integers, got {bounces!r}")
 
-    import colour
+    from ._cie import xyz_to_lab, xyz_to_xy
 
     wl, cmf = reference_grid()
     csum = cmf.sum(axis=0)
@@ -420,8 +428,8 @@ def segment(
     g = np.stack(g)  # (T, G)
     ref = np.einsum("jg,tg,cg->jtc", egrid, g, cmf)  # (J, T, 3), white Y = 1
     white = (egrid @ cmf.T)[:, None, :]  # (J, 1, 3)
-    xy_w = colour.XYZ_to_xy(white)
-    ref_lab = colour.XYZ_to_Lab(ref, xy_w)
+    xy_w = xyz_to_xy(white)
+    ref_lab = xyz_to_lab(ref, xy_w)
 
     # 1-2. irregularities and intervals
     support = np.flatnonzero(w > 1e-9 * w.max())
@@ -476,7 +484,7 @@ def segment(
             en = np.interp(nodes, wl, egrid[j])
             h = _emission_weights(nodes, cmf, egrid[j], en)
             out[j] = (gn * en) @ h.T / K_M
-        de = np.linalg.norm(colour.XYZ_to_Lab(out, xy_w) - ref_lab, axis=-1)
+        de = np.linalg.norm(xyz_to_lab(out, xy_w) - ref_lab, axis=-1)
         return float(np.mean(de**4) ** 0.25)
 
     n = int(min(max_samples, dom_hi - dom_lo))
