@@ -3,6 +3,8 @@
     python benchmarks/courtyard.py                        # full scale: 4 × 40 bays, 3,000 lights
     python benchmarks/courtyard.py --bays 10 --target-patches 20000   # a quarter, to extrapolate
     python benchmarks/courtyard.py --operator-patches 0   # one level (the dense P² operator)
+    python benchmarks/courtyard.py --operator-patches 0 --transport sampled --target-patches 200000
+                                       # one level, ray-sampled form factors (docs/radiosity.md)
 
 Generates the study (studies/courtyard/make_courtyard.py) into a temporary folder, then runs the
 stages of ``lumijax.compute`` one after the other in this process: load (config + scene), then
@@ -74,6 +76,8 @@ def main(argv=None) -> None:
     p.add_argument("--max-block", type=int, default=1024)
     p.add_argument("--operator-patches", type=int, default=None,
                    help="elements of the two-level operator (default: the study's; 0: one level)")
+    p.add_argument("--transport", choices=("blocks", "sampled"), default="blocks")
+    p.add_argument("--rays-per-patch", type=int, default=256, help="sampled transport")
     p.add_argument("--stop-after", default=None, help="stage name to stop after")
     args = p.parse_args(argv)
 
@@ -119,7 +123,8 @@ def main(argv=None) -> None:
     normals = np.concatenate([g.normals for g in sc.grids])
     settings = SolverSettings(target_patches=c.target_patches, max_block=args.max_block,
                               gather_rays=c.gather_rays, spectral_samples=c.spectral_samples,
-                              operator_patches=c.operator_patches)
+                              operator_patches=c.operator_patches, transport=args.transport,
+                              rays_per_patch=args.rays_per_patch)
     quiet = lambda done, total: None  # noqa: E731
     emission = stg.group_emission(sc)
     st.update(luminaires=len(sc.luminaires), networks=len(sc.networks),
@@ -135,9 +140,16 @@ def main(argv=None) -> None:
     st["patches"] = (meshed.fine or meshed.patches).n
     if meshed.fine is not None:
         st["elements"] = meshed.patches.n
+    def _sampled_note(tr):
+        i = tr.operator.info
+        return (f"{tr.operator.nbytes / 2**30:.2f} GiB stored, {i['links_per_patch']:.0f} links "
+                f"per patch; {i['rays']:,} rays ({i['ray_time_s']:.0f} s in Embree, build "
+                f"{i['rays_per_s'] / 1e6:.2f} M rays/s)")
+
     transport = stage(
         "memory bound + partition + operator build",
         lambda: stg.build_transport(sc, meshed, settings),
+        _sampled_note if args.transport == "sampled" else
         lambda tr: f"bound {tr.bound_s:.1f} s, partition {tr.partition_s:.1f} s; "
                    f"{tr.operator.nbytes / 2**30:.2f} GiB stored "
                    f"({tr.operator.lowrank_nbytes / 2**30:.2f} low rank); "

@@ -3,6 +3,19 @@
     python benchmarks/hierarchy.py                                  # courtyard, 4k … 32k patches
     python benchmarks/hierarchy.py --scene hall --patches 4000 16000 64000
     python benchmarks/hierarchy.py --flat-up-to 16000               # one-level builds to compare
+    python benchmarks/hierarchy.py --transport sampled --patches 10000 30000 100000 300000
+    python benchmarks/hierarchy.py --transport sampled --accuracy 30000 --facades S
+
+With ``--transport sampled`` the ray-sampled operator (``radiosity/_sampled.py``) is built
+instead: per patch count its stored MiB, links per patch, the process's peak RSS, the build's
+rays/s against Embree's raw first-hit rate on the same scene in the same run (the same kind of
+rays: cosine-weighted from patch centroids, same batch size), and the growth exponent. With
+``--accuracy N`` one mesh of about N patches is solved with the block operator (hierarchical,
+default settings) and with the sampled one at each ``--rays``, lit by the study's own
+luminaires (direct light with shadows, every network at dimmer 1, luminous), ρ 0.6 on
+facades and 0.3 on the ground; it prints the inter-reflected irradiance's area-weighted mean
+difference and RMS per patch (relative to the field's RMS, as tests/lighting/
+test_final_gather.py defines it).
 
 Scenes: ``courtyard`` is the study generator's courtyard (studies/courtyard/make_courtyard.py;
 4 facades × ``--bays`` bays with reveals, columns and cornices: far pairs are self-shadowed, so
@@ -27,6 +40,7 @@ import platform
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +48,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def courtyard_triangles(bays: int):
+def courtyard_study(bays: int, facades: str = "SENW"):
     spec = importlib.util.spec_from_file_location(
         "make_courtyard", ROOT / "studies" / "courtyard" / "make_courtyard.py")
     gen = importlib.util.module_from_spec(spec)
@@ -42,11 +56,17 @@ def courtyard_triangles(bays: int):
     spec.loader.exec_module(gen)
     from lumijax import load_study
 
-    c = dataclasses.replace(gen.FULL, facades=tuple("SENW"), bays=bays, floods_per_facade=2,
+    c = dataclasses.replace(gen.FULL, facades=tuple(facades), bays=bays, floods_per_facade=2,
                             operator_patches=None)
     folder = Path(tempfile.mkdtemp(prefix="lumijax-hierarchy-"))
     gen.write_study(c, folder / "study.toml", folder / "assets", "benchmark")
-    tri = load_study(folder / "study.toml").scene.triangles
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the generator's coincident boxes (known, harmless)
+        return load_study(folder / "study.toml")
+
+
+def courtyard_triangles(bays: int, facades: str = "SENW"):
+    tri = courtyard_study(bays, facades).scene.triangles
     return tri.vertices, tri.group
 
 
@@ -65,7 +85,15 @@ def main(argv=None) -> None:
     ap.add_argument("--patches", type=int, nargs="+", default=[4000, 8000, 16000, 32000])
     ap.add_argument("--max-block", type=int, default=1024)
     ap.add_argument("--flat-up-to", type=int, default=16000)
+    ap.add_argument("--facades", default="SENW", help="courtyard: which facades (S, E, N, W)")
+    ap.add_argument("--transport", choices=("blocks", "sampled"), default="blocks")
+    ap.add_argument("--rays", type=int, nargs="+", default=[256],
+                    help="sampled: rays per patch (the first for the memory sweep)")
+    ap.add_argument("--accuracy", type=int, default=None, metavar="N",
+                    help="sampled: compare with the block operator on one mesh of ~N patches")
     args = ap.parse_args(argv)
+    if args.transport == "sampled":
+        return sampled_main(args)
 
     import jax.numpy as jnp
 
@@ -131,6 +159,123 @@ def _table(rows) -> None:
               f"({r['cluster_leaves']}) | {r['covered']:,} | {r['rank_mean']:.1f} / "
               f"{r['rank_max']} | {r['near_mib']:.1f} | {r['far_mib']:.1f} | "
               f"{r['total_mib']:.1f} | {r['growth']:.2f} | {r['diff']:.1e} |")
+
+
+def _rss_gib() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+
+
+def _raw_rate(caster, p, rays: int, batch: int = 8192) -> float:
+    """Embree's first-hit rate (rays/s) alone: cosine-weighted rays from the first ``batch``
+    patches' centroids, the same count and kind as one batch of the build."""
+    from lumijax.radiosity._gather import _cosine_directions, _frames
+
+    k = min(batch, p.n)
+    frames = _frames(np.asarray(p.normal[:k], np.float64), np.random.default_rng(0))
+    dirs = np.einsum("pij,rj->pri", frames, _cosine_directions(rays)).reshape(-1, 3)
+    o = np.repeat(p.centroid[:k] + 10 * caster.epsilon * p.normal[:k], rays, axis=0)
+    t = time.perf_counter()
+    caster.first_hit(o, dirs)
+    return len(o) / (time.perf_counter() - t)
+
+
+def sampled_main(args) -> None:
+    from lumijax.lighting._pipeline import auto_patch_size
+    from lumijax.radiosity import SampledSettings, build_sampled, mesh_patches
+    from lumijax.scene._raycast import RayCaster
+
+    study = courtyard_study(args.bays, args.facades) if args.scene == "courtyard" else None
+    if study is not None:
+        tri, group = study.scene.triangles.vertices, study.scene.triangles.group
+    else:
+        tri, group = hall_triangles()
+    tri = np.asarray(tri, np.float64)
+    area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                      axis=1).sum())
+    caster = RayCaster(tri)
+    print(f"machine: {platform.platform()}, {platform.processor() or platform.machine()}; "
+          f"scene {args.scene} ({args.facades}, {args.bays} bays): {len(tri):,} triangles, "
+          f"{area:,.0f} m²; times on a shared 2-core machine are contended", flush=True)
+    if args.accuracy:
+        return _accuracy(args, study, tri, group, area, caster)
+    rows, last = [], None
+    for target in args.patches:
+        p = mesh_patches(tri, group=group, patch_size=auto_patch_size(area, target))
+        raw = _raw_rate(caster, p, args.rays[0])
+        t = time.perf_counter()
+        op = build_sampled(p, tri, SampledSettings(rays_per_patch=args.rays[0]), caster=caster)
+        dt = time.perf_counter() - t
+        raw2 = _raw_rate(caster, p, args.rays[0])  # before and after: contention drifts
+        i = op.info
+        growth = (np.log(op.nbytes / last[1]) / np.log(p.n / last[0]) if last else float("nan"))
+        last = (p.n, op.nbytes)
+        rows.append(dict(patches=p.n, rays=i["rays"], build_s=dt, ray_s=i["ray_time_s"],
+                         rate=i["rays"] / dt, raw=0.5 * (raw + raw2), links=i["links_per_patch"],
+                         mib=op.nbytes / 2**20, rss=_rss_gib(), growth=growth))
+        print(f"  {p.n:,} patches: {dt:.1f} s, {op.nbytes / 2**20:.1f} MiB", flush=True)
+        del op
+    print("\n| patches | rays | build (s) | in Embree (s) | build rays/s | raw Embree rays/s | "
+          "ratio | links per patch | operator MiB | peak RSS GiB | growth exponent |")
+    print("|" + "---|" * 11)
+    for r in rows:
+        print(f"| {r['patches']:,} | {r['rays'] / 1e6:.1f} M | {r['build_s']:.1f} | "
+              f"{r['ray_s']:.1f} | {r['rate'] / 1e6:.2f} M | {r['raw'] / 1e6:.2f} M | "
+              f"{r['rate'] / r['raw']:.0%} | {r['links']:.0f} | {r['mib']:.1f} | "
+              f"{r['rss']:.2f} | {r['growth']:.2f} |")
+
+
+def _accuracy(args, study, tri, group, area, caster) -> None:
+    import jax.numpy as jnp
+
+    from lumijax.direct import direct_illuminance
+    from lumijax.lighting._pipeline import auto_patch_size
+    from lumijax.radiosity import (
+        SampledSettings,
+        build_operator,
+        build_sampled,
+        mesh_patches,
+        partition,
+        solve_radiosity,
+    )
+
+    p = mesh_patches(tri, group=group, patch_size=auto_patch_size(area, args.accuracy))
+    t = time.perf_counter()
+    e_dir = direct_illuminance(study.scene, p.centroid, p.normal).by_network.sum(axis=0)
+    print(f"  {p.n:,} patches; direct light {time.perf_counter() - t:.1f} s", flush=True)
+    rho = np.where(p.normal[:, 2] > 0.5, 0.3, 0.6)
+    b0 = jnp.asarray((rho * e_dir)[:, None], jnp.float32)
+    rho_j = jnp.asarray(rho, jnp.float32)
+    t = time.perf_counter()
+    dense = build_operator(p, partition(p, args.max_block, occluders=caster), caster,
+                           occluder_triangles=tri)
+    t_dense = time.perf_counter() - t
+    b = solve_radiosity(dense, rho_j, b0).value
+    ref = np.asarray(dense.matmul(b), np.float64)[:, 0]
+    ref1 = np.asarray(dense.matmul(b0), np.float64)[:, 0]
+    print(f"  block operator: {t_dense:.1f} s, {dense.nbytes / 2**20:.0f} MiB, peak RSS "
+          f"{_rss_gib():.2f} GiB", flush=True)
+    del dense
+    a = p.area
+
+    def cmp(x, y):
+        return (np.sum(a * (x - y)) / np.sum(a * y),
+                np.sqrt(np.sum(a * (x - y) ** 2) / np.sum(a * y**2)))
+
+    print("\n| rays per patch | build (s) | MiB | links per patch | indirect mean | indirect RMS "
+          "per patch | first bounce mean | first bounce RMS |")
+    print("|" + "---|" * 8)
+    for n in args.rays:
+        t = time.perf_counter()
+        op = build_sampled(p, tri, SampledSettings(rays_per_patch=n), caster=caster)
+        dt = time.perf_counter() - t
+        b = solve_radiosity(op, rho_j, b0).value
+        m, r = cmp(np.asarray(op.matmul(b), np.float64)[:, 0], ref)
+        m1, r1 = cmp(np.asarray(op.matmul(b0), np.float64)[:, 0], ref1)
+        print(f"| {n} | {dt:.1f} | {op.nbytes / 2**20:.0f} | {op.info['links_per_patch']:.0f} | "
+              f"{m:+.2%} | {r:.2%} | {m1:+.2%} | {r1:.2%} |", flush=True)
+        del op
 
 
 if __name__ == "__main__":
