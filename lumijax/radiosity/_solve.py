@@ -22,6 +22,12 @@ Two things happen around every solve:
   autodiff, and the system is linear, so the answer and its derivatives are unchanged) so that
   one tolerance means the same thing for a bright and a dim network.
 
+**Patch buckets.** The compiled solve sees the patch axis padded to :func:`patch_bucket` (a
+multiple of 1024, under 1/8 more above 16,384): padding patches have ρ = 0, B₀ = 0, area 1 and no
+form factors, so they stay 0, see nothing (row sum 0: outside the closed test and the
+correction) and carry no flux; the answer is cut back to the real patches. A new study of a
+similar size then reuses the compiled ``_solve`` (XLA's persistent cache keys on shapes).
+
 **Distinct columns.** Two columns with the same reflectance and the same B₀ (in the solve's
 precision) are the same problem: only the distinct ones are solved and the answer is broadcast
 back to every column (``stats["columns_solved"]`` says how many were). A grey scene's sample
@@ -32,6 +38,7 @@ wavelengths are such copies once the spectral factor is taken out of B₀
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 
 import equinox as eqx
@@ -43,7 +50,7 @@ from jaxtyping import Array, Float, Int
 
 from ..errors import SolveError
 from ._krylov import column_max
-from ._operator import ReflectionOperator, TransportOperator
+from ._operator import Info, ReflectionOperator, TransportOperator
 from ._solvers import (
     DEFAULT_RADIOSITY_SOLVER,
     RADIOSITY_SOLVERS,
@@ -59,6 +66,7 @@ __all__ = [
     "row_correction",
     "distinct_columns",
     "CLOSED_TOL",
+    "patch_bucket",
 ]
 
 CLOSED_TOL = 0.02
@@ -233,7 +241,7 @@ def solve_radiosity(
         jnp.concatenate([_flat_columns(rho, b0), _flat_columns(tau, b0)]),
         jnp.concatenate([b0, b0]).reshape(2 * b0.shape[0], -1))
     if columns is None:  # traced: every column
-        b, iterations, residual, result, escaped, stats = _solve(
+        b, iterations, residual, result, escaped, stats = _padded_solve(
             transport, rho, b0, solver, float(rtol), int(max_steps), bool(correct_rows),
             tau, partner)
         stats = dict(stats, columns_solved=int(np.prod(b0.shape[1:], dtype=int)))
@@ -242,7 +250,7 @@ def solve_radiosity(
         n = b0.shape[0]
         rho_u = _flat_columns(rho, b0)[:, first]
         tau_u = None if tau is None else _flat_columns(tau, b0)[:, first]
-        b_u, iterations, residual, result, escaped_u, stats = _solve(
+        b_u, iterations, residual, result, escaped_u, stats = _padded_solve(
             transport, rho_u, b0.reshape(n, -1)[:, first], solver, float(rtol),
             int(max_steps), bool(correct_rows), tau_u, partner)
         b = b_u[:, inverse].reshape(b0.shape)
@@ -290,6 +298,45 @@ def distinct_columns(rho, b0) -> tuple[np.ndarray, np.ndarray] | None:
             inverse[j] = len(first)
             first.append(j)
     return np.asarray(first, np.int64), inverse
+
+
+def patch_bucket(n: int) -> int:
+    """The padded patch count the compiled solve sees for ``n`` patches: the next multiple of
+    1024, or of 2^(⌈log₂ n⌉ − 4) where that is larger (under n/8 of padding above 16,384)."""
+    step = max(1024, 1 << max(0, (int(n) - 1).bit_length() - 4))
+    return -(-int(n) // step) * step
+
+
+def _pad_rows(x, n, extra, value=0):
+    if x is None:
+        return None
+    x = jnp.asarray(x)
+    return jnp.concatenate([x, jnp.full((extra,) + x.shape[1:], value, x.dtype)])
+
+
+def _padded_solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau, partner):
+    """:func:`_solve` on the patch axis padded to :func:`patch_bucket` (module docstring)."""
+    n = transport.n_patches
+    extra = patch_bucket(n) - n
+    if extra == 0:
+        return _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau, partner)
+    padded = dataclasses.replace(
+        transport, area=_pad_rows(transport.area, n, extra, 1),
+        block_of=_pad_rows(transport.block_of, n, extra, -1), n_patches=n + extra,
+        info=Info())  # build statistics differ by study and would key a new compile
+
+    def rows(x):  # per-patch arrays padded; other broadcastable shapes made per-patch first
+        if x is None:
+            return None
+        x = jnp.asarray(x)
+        if x.ndim == 0 or x.shape[0] != n:
+            x = jnp.broadcast_to(x, b0.shape)
+        return _pad_rows(x, n, extra)
+
+    b, iterations, residual, result, escaped, stats = _solve(
+        padded, rows(rho), rows(b0), solver, rtol, max_steps, correct_rows, rows(tau),
+        None if partner is None else _pad_rows(partner, n, extra))
+    return b[:n], iterations, residual, result, escaped, stats
 
 
 @eqx.filter_jit

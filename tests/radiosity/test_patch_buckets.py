@@ -1,0 +1,46 @@
+"""The compiled solve sees the patch axis padded to a bucket (radiosity/_solve.py): padding
+changes no number, and two rooms of different patch counts share one compiled shape."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from lumijax.radiosity import solve_radiosity
+from lumijax.radiosity._solve import _solve, patch_bucket
+
+
+def test_bucket_ladder():
+    # by hand: multiples of 1024 up to 16,384, then steps of 2^(ceil(log2 n) - 4)
+    assert [patch_bucket(n) for n in (1, 300, 1024, 1025, 4332, 16385, 100_000)] == \
+        [1024, 1024, 1024, 2048, 5120, 18432, 106496]
+    for n in (1, 777, 5000, 33_333, 250_000):
+        assert n <= patch_bucket(n) < n + max(n / 8, 1024)
+
+
+@pytest.mark.parametrize("rho", [0.9])
+def test_padded_solve_against_dense_numpy(cube_room, rho):
+    p, _, op = cube_room
+    assert patch_bucket(p.n) > p.n  # the padding is exercised
+    f = op.todense()
+    rows = f.sum(axis=1)
+    rng = np.random.default_rng(0)
+    b0 = rng.uniform(0.0, 100.0, (p.n, 3))
+    sol = solve_radiosity(op, jnp.full(p.n, rho), jnp.asarray(b0), rtol=1e-11)
+    # independent: a closed box's outgoing light is normalised (F_ij -> F_ij / s_j, s the row
+    # sums), then a dense solve of (I - rho F') B = B0
+    assert bool(sol.stats["closed"])  # padding rows (row sum 0) do not spoil the closed test
+    c = 1.0 / rows
+    ref = np.linalg.solve(np.eye(p.n) - rho * f * c[None, :], b0)
+    np.testing.assert_allclose(np.asarray(sol.value), ref, rtol=1e-9)
+    assert float(np.max(np.asarray(sol.escaped))) < 1e-9
+    # unpadded, the same compiled body gives the same numbers
+    unpadded = _solve(op, jnp.full(p.n, rho), jnp.asarray(b0), sol_solver(), 1e-11, 1000, True)
+    np.testing.assert_allclose(np.asarray(sol.value), np.asarray(unpadded[0]), rtol=1e-12)
+
+
+def sol_solver():
+    from lumijax.radiosity._solvers import radiosity_solver
+
+    return radiosity_solver("refined")
