@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -195,14 +196,14 @@ def calibrate(study, results, measurements, *, fit=("llf", "reflectance"),
     rows = np.arange(len(idx))
     slot = jnp.asarray(remap[idx] if indirect_fixed is None else rows)
 
-    def model(theta):
+    def model(theta, transport):
         llf = theta[:n_llf] if n_llf else jnp.ones(k)
         if indirect_fixed is not None:
             ind = indirect_fixed
         else:
             rho_m = theta[n_llf:n_llf + n_rho] if n_rho else jnp.asarray(rho0)
             rho = rho_m[where] * ratio
-            b = solve_radiosity(lighting.transport, rho.astype(dt),
+            b = solve_radiosity(transport, rho.astype(dt),
                                 (rho[:, None] * e_patch).astype(dt)).value.astype(jnp.float64)
             ind = jax.vmap(lambda col: jax.ops.segment_sum(col[gq] * gw, gp,
                                                            num_segments=len(idx)),
@@ -211,19 +212,22 @@ def calibrate(study, results, measurements, *, fit=("llf", "reflectance"),
 
     m = jnp.asarray(meas)
 
-    def resid(theta):
-        return (model(theta) - m) / m
+    def resid(theta, transport):
+        return (model(theta, transport) - m) / m
 
     theta0 = np.concatenate([np.ones(n_llf), rho0 if n_rho else np.zeros(0)])
     lo = np.concatenate([np.full(n_llf, LLF_BOUNDS[0]), np.full(n_rho, RHO_BOUNDS[0])])
     hi = np.concatenate([np.full(n_llf, LLF_BOUNDS[1]), np.full(n_rho, RHO_BOUNDS[1])])
     theta0 = np.clip(theta0, lo, hi)
-    r_fn = jax.jit(resid)
-    j_fn = jax.jit(jax.jacfwd(resid))  # few parameters: forward mode, one solve each
-    res = least_squares(lambda t: np.asarray(r_fn(jnp.asarray(t))),
-                        theta0, jac=lambda t: np.asarray(j_fn(jnp.asarray(t))),
+    # the operator is an argument, not a closed-over constant: as a constant XLA folds its
+    # blocks into the program (3 GB and climbing for a 1,000-patch room)
+    op = lighting.transport if indirect_fixed is None else None
+    r_fn = eqx.filter_jit(resid)
+    j_fn = eqx.filter_jit(jax.jacfwd(resid))  # few parameters: forward mode, one solve each
+    res = least_squares(lambda t: np.asarray(r_fn(jnp.asarray(t), op)),
+                        theta0, jac=lambda t: np.asarray(j_fn(jnp.asarray(t), op)),
                         bounds=(lo, hi), method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
-    r0 = np.asarray(r_fn(jnp.asarray(theta0)))
+    r0 = np.asarray(r_fn(jnp.asarray(theta0), op))
     r1 = np.asarray(res.fun)
     jac = np.asarray(res.jac)
     dof = max(len(r1) - len(theta0), 1)
