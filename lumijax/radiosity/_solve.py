@@ -23,7 +23,7 @@ Two things happen around every solve:
   one tolerance means the same thing for a bright and a dim network.
 
 **Patch buckets.** The compiled solve sees the patch axis padded to :func:`patch_bucket` (a
-multiple of 1024, under 1/8 more above 16,384): padding patches have ρ = 0, B₀ = 0, area 1 and no
+multiple of 256, under 1/8 more above 4,096): padding patches have ρ = 0, B₀ = 0, area 1 and no
 form factors, so they stay 0, see nothing (row sum 0: outside the closed test and the
 correction) and carry no flux; the answer is cut back to the real patches. A new study of a
 similar size then reuses the compiled ``_solve`` (XLA's persistent cache keys on shapes).
@@ -302,14 +302,18 @@ def distinct_columns(rho, b0) -> tuple[np.ndarray, np.ndarray] | None:
 
 def patch_bucket(n: int) -> int:
     """The padded patch count the compiled solve sees for ``n`` patches: the next multiple of
-    1024, or of 2^(⌈log₂ n⌉ − 4) where that is larger (under n/8 of padding above 16,384)."""
-    step = max(1024, 1 << max(0, (int(n) - 1).bit_length() - 4))
+    256, or of 2^(⌈log₂ n⌉ − 4) where that is larger (under n/8 of padding above 4,096; a
+    small room's vectors stay small, the form-factor blocks cost the same either way)."""
+    step = max(256, 1 << max(0, (int(n) - 1).bit_length() - 4))
     return -(-int(n) // step) * step
 
 
 def _pad_rows(x, n, extra, value=0):
     if x is None:
         return None
+    c = _concrete(x)
+    if c is not None:  # numpy, then one transfer: eager jnp ops would each compile a kernel
+        return jnp.asarray(np.concatenate([c, np.full((extra,) + c.shape[1:], value, c.dtype)]))
     x = jnp.asarray(x)
     return jnp.concatenate([x, jnp.full((extra,) + x.shape[1:], value, x.dtype)])
 
@@ -328,9 +332,10 @@ def _padded_solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau
     def rows(x):  # per-patch arrays padded; other broadcastable shapes made per-patch first
         if x is None:
             return None
-        x = jnp.asarray(x)
+        c = _concrete(x)
+        x = jnp.asarray(x) if c is None else c
         if x.ndim == 0 or x.shape[0] != n:
-            x = jnp.broadcast_to(x, b0.shape)
+            x = jnp.broadcast_to(x, b0.shape) if c is None else np.broadcast_to(x, b0.shape)
         return _pad_rows(x, n, extra)
 
     b, iterations, residual, result, escaped, stats = _solve(

@@ -12,11 +12,11 @@ from lumijax.radiosity._solve import _solve, patch_bucket
 
 
 def test_bucket_ladder():
-    # by hand: multiples of 1024 up to 16,384, then steps of 2^(ceil(log2 n) - 4)
-    assert [patch_bucket(n) for n in (1, 300, 1024, 1025, 4332, 16385, 100_000)] == \
-        [1024, 1024, 1024, 2048, 5120, 18432, 106496]
+    # by hand: multiples of 256 up to 4,096, then steps of 2^(ceil(log2 n) - 4)
+    assert [patch_bucket(n) for n in (1, 300, 344, 1024, 1025, 4332, 16385, 100_000)] == \
+        [256, 512, 512, 1024, 1280, 4608, 18432, 106496]
     for n in (1, 777, 5000, 33_333, 250_000):
-        assert n <= patch_bucket(n) < n + max(n / 8, 1024)
+        assert n <= patch_bucket(n) < n + max(n / 8, 256)
 
 
 @pytest.mark.parametrize("rho", [0.9])
