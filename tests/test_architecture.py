@@ -92,3 +92,15 @@ def test_imports_point_down(path):
         if _layer(target) != here and RANK.get(_layer(target), -1) >= RANK[here]
     ]
     assert not upward, "imports that run up the layers:\n" + "\n".join(upward)
+
+
+def test_test_modules_outside_packages_have_unique_names():
+    # pytest's default import mode imports a test file outside a package by its bare name, so two
+    # tests/*/test_x.py break collection of the whole suite ("import file mismatch").
+    tests = Path(__file__).parent
+    seen: dict[str, list[str]] = {}
+    for f in tests.rglob("test_*.py"):
+        if not (f.parent / "__init__.py").exists():
+            seen.setdefault(f.name, []).append(str(f.relative_to(tests)))
+    clashes = {name: paths for name, paths in seen.items() if len(paths) > 1}
+    assert not clashes, f"rename one of each: {clashes}"
