@@ -69,13 +69,19 @@ def test_the_panel_has_two_faces_and_each_patch_its_mirror(rooms):
     np.testing.assert_allclose(p.centroid[partner[front], 1:], p.centroid[front, 1:], atol=1e-9)
 
 
-def test_the_enclosure_absorbs_what_the_lamp_emits(rooms):
-    study, res = rooms
+def _solved(study, res):
+    """The coarse solution's patches, radiosity, direct light and luminous ρ, τ per patch."""
     sol = res.lighting
     p, b, e = sol.coarse.patches, sol.coarse.radiosity[0], sol.coarse.patch_direct[0]
     mats = study.scene.materials
     rho = np.array([m.rho for m in mats])[p.material]
     tau = np.array([m.tau for m in mats])[p.material]
+    return sol, p, b, e, rho, tau
+
+
+def test_the_enclosure_absorbs_what_the_lamp_emits(rooms):
+    study, res = rooms
+    sol, p, b, e, rho, tau = _solved(study, res)
     h = e + np.asarray(sol.transport.matmul(jnp.asarray(_c(sol) * b)))  # arriving, lx
     absorbed = float(np.sum(p.area * h * (1 - rho - tau)))
     assert absorbed == pytest.approx(float(np.sum(p.area * e)), rel=1e-6)
@@ -86,11 +92,7 @@ def test_the_enclosure_absorbs_what_the_lamp_emits(rooms):
 
 def test_the_coupled_solve_against_a_dense_solve(rooms):
     study, res = rooms
-    sol = res.lighting
-    p, b, e = sol.coarse.patches, sol.coarse.radiosity[0], sol.coarse.patch_direct[0]
-    mats = study.scene.materials
-    rho = np.array([m.rho for m in mats])[p.material]
-    tau = np.array([m.tau for m in mats])[p.material]
+    sol, p, b, e, rho, tau = _solved(study, res)
     f = np.asarray(sol.transport.matmul(jnp.eye(p.n, dtype=jnp.float64)))
     f = f * _c(sol)[None, :]  # the solve's row correction: F_ij → F_ij c_j
     front, back = _sides(p)
