@@ -138,6 +138,7 @@ def _find_line(text: str, key: str) -> int | None:
     parts = re.findall(r"[^.\[\]]+|\[\d+\]", key)
     lines = text.splitlines()
     start = 0
+    table = None  # the line of a [table] the key's last part names (a model-level error)
     # walk array-of-tables headers: 'luminaires[3]' is the 4th [[luminaires]] header
     for j, p in enumerate(parts):
         if p.startswith("[") and j > 0:
@@ -150,6 +151,8 @@ def _find_line(text: str, key: str) -> int | None:
                    if re.match(rf"^\s*\[+[^\]]*\b{re.escape(p)}\b[^\]]*\]+\s*$", ln)]
             if hdr and j < len(parts) - 1:
                 start = hdr[0]
+            elif hdr:
+                table = hdr[0]
     while parts and parts[-1].startswith("[") and len(parts) > 1 and not parts[-2].startswith("["):
         parts = parts[:-1]  # 'min[2]': the element of an inline array is on the 'min' line
     last = parts[-1]
@@ -162,6 +165,8 @@ def _find_line(text: str, key: str) -> int | None:
             rf"[{{,]\s*{re.escape(last)}\s*=", lines[i]
         ):
             return i + 1
+    if table is not None:
+        return table + 1
     return start + 1 if start else None
 
 

@@ -126,3 +126,13 @@ def test_source_is_not_a_config_key(write_study):
 def test_unknown_luminaire_kind_lists_the_valid_ones(write_study):
     with pytest.raises(ConfigError, match="'photometric', 'area'"):
         load_config(write_study(BASE.replace('name = "L0"', 'name = "L0"\nkind = "spot"', 1)))
+
+
+def test_a_model_level_error_names_its_own_tables_line(write_study):
+    # ρ_d + ρ_s + τ > 1 is checked on the whole [materials.glossy] table (a model-level error):
+    # its line is that table's header, not the first [materials.*] one above it.
+    text = BASE + material("glossy", 0.5, specular=0.6)
+    with pytest.raises(ConfigError) as info:
+        load_config(write_study(text))
+    assert info.value.key == "materials.glossy"
+    assert info.value.line == text.splitlines().index("[materials.glossy]") + 1
