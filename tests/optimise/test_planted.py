@@ -19,8 +19,9 @@ from .conftest import START_AIMS, facade_text
 
 
 def _write_map(path, grid, lux):
-    rows = "\n".join(f"{p[0]!r},{p[1]!r},{p[2]!r},{v!r}" for p, v in zip(grid.points, lux,
-                                                                          strict=True))
+    # float(): numpy 2 writes a numpy scalar's repr as "np.float64(…)", which is not a number
+    rows = "\n".join(",".join(repr(float(c)) for c in (*p, v))
+                     for p, v in zip(grid.points, lux, strict=True))
     path.write_text("x,y,z,lux\n" + rows + "\n", encoding="utf-8")
 
 
