@@ -3,8 +3,9 @@
 Built once from a lit study (:func:`build_glare_model`), on the host and with rays:
 
 * per observer and luminaire: the unit direction luminaire → eye (world), 1/d² (m⁻²) and
-  whether a shadow ray from the eye reaches the luminaire (a luminaire hidden behind a column
-  does not glare);
+  the fraction of its luminance a ray from the eye sees: 0 behind an opaque triangle (a
+  luminaire hidden behind a column does not glare), τ(θ) of each clear pane on the way (a
+  luminaire seen through a window glares with luminance τ L, its solid angle unchanged);
 * per view (an observer's line of sight; a fan gives several) and luminaire: the Guth position
   index, the cosine and angle (deg) off the line of sight, and whether the source is in front of
   the eye;
@@ -84,6 +85,7 @@ class _AreaSources(_Seen):
 
     luminance: Float[Array, " m"]
     solid_angle: Float[Array, "obs m"]
+    transmission: Float[Array, "obs m"]  # τ of the panes on the line of sight (1: none)
 
 
 class GlareRatings(NamedTuple):
@@ -204,16 +206,19 @@ class GlareModel(eqx.Module):
             seen = g.visible[obs]
             lv = lum[obs] * a
             front = (g.cos_sigma > 0).astype(dt)  # sources behind the eye do not glare
-            ugr_parts.append(lv * lv * omega[obs] * seen * front / (g.position * g.position))
+            # seen through panes the luminance is τ L (ω unchanged): the term goes as τ²
+            ugr_parts.append(lv * lv * omega[obs] * (seen * seen) * front
+                             / (g.position * g.position))
             e_eye = cd[obs] * a * g.inv_d2[obs] * g.cos_sigma * seen  # lx across the sight
             veil_parts.append(_veil(e_eye, g.angle_deg))
         if self.areas is not None:
             ar = self.areas
             lv = ar.luminance[None] * alpha[ar.network].astype(ar.luminance.dtype)[None]
             omega = ar.solid_angle[obs]
+            tau = ar.transmission[obs]
             front = (ar.cos_sigma > 0).astype(lv.dtype)
-            ugr_parts.append(lv * lv * omega * front / (ar.position * ar.position))
-            veil_parts.append(_veil(lv * omega * ar.cos_sigma, ar.angle_deg))
+            ugr_parts.append(lv * lv * omega * (tau * tau) * front / (ar.position * ar.position))
+            veil_parts.append(_veil(lv * omega * tau * ar.cos_sigma, ar.angle_deg))
         if not ugr_parts:
             zero = jnp.zeros((self.n_views, 0))
             ugr_parts, veil_parts = [zero], [zero]
@@ -318,9 +323,8 @@ def build_glare_model(scene, observers, lighting=None, *, rays: int = 512,
         w = off / dist[..., None]
         visible = np.ones(d2.shape)
         if seen_by is not None and len(observers):
-            blocked = caster.occluded(np.repeat(eyes, len(lums), axis=0),
-                                      np.tile(pos, (len(observers), 1)))
-            visible = (~blocked).reshape(d2.shape).astype(np.float64)
+            visible = _seen_fraction(caster, np.repeat(eyes, len(lums), axis=0),
+                                     np.tile(pos, (len(observers), 1))).reshape(d2.shape)
         if phot.opening.is_point and len(observers) and visible.any():
             warnings.warn(f"photometry {name!r} gives no luminous dimensions: its glare is "
                           f"computed for a sphere of {opening_size(phot.opening):g} m "
@@ -400,15 +404,25 @@ def _area_sources(scene, eyes, view_obs, forward, caster, net_index):
     cos_e = np.maximum(np.einsum("omk,mk->om", w, normal), 0.0)  # front faces only
     visible = np.ones(d2.shape)
     if caster is not None:
-        blocked = caster.occluded(np.repeat(eyes, len(centre), axis=0),
-                                  np.tile(centre, (len(eyes), 1)))
-        visible = (~blocked).reshape(d2.shape)
+        visible = _seen_fraction(caster, np.repeat(eyes, len(centre), axis=0),
+                                 np.tile(centre, (len(eyes), 1))).reshape(d2.shape)
     p, cos_s, ang = _view_geometry(-w[view_obs], forward)
     lum = np.array([a.exitance / math.pi for a in scene.area_sources])
     return _AreaSources(
         network=jnp.asarray([net_index[a.network] for a in scene.area_sources], jnp.int32),
-        luminance=jnp.asarray(lum), solid_angle=jnp.asarray(area * cos_e / d2 * visible),
+        luminance=jnp.asarray(lum), solid_angle=jnp.asarray(area * cos_e / d2 * (visible > 0)),
+        transmission=jnp.asarray(visible),
         position=jnp.asarray(p), cos_sigma=jnp.asarray(cos_s), angle_deg=jnp.asarray(ang))
+
+
+def _seen_fraction(caster, eyes, targets) -> np.ndarray:
+    """Per segment eye → source centre, the fraction of the source's luminance the eye sees:
+    0 behind an opaque triangle, else the product of τ(θ) of the clear panes crossed
+    (``GlazedCaster.transmission``, θ the line of sight's incidence on each pane); 1 or 0 for
+    a caster without glass."""
+    if hasattr(caster, "transmission"):
+        return np.asarray(caster.transmission(eyes, targets), np.float64)
+    return (~np.asarray(caster.occluded(eyes, targets))).astype(np.float64)
 
 
 def _background(lighting, eyes, forward, caster, rays, k):
