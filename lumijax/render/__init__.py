@@ -14,7 +14,13 @@ from ._emitters import (
     opening_triangles as opening_triangles,
 )
 from ._image import SOURCE_FACTOR as SOURCE_FACTOR, LuminanceImage as LuminanceImage
-from ._optics import MIRROR_ROUGHNESS as MIRROR_ROUGHNESS, Optics as Optics, optics_of as optics_of
+from ._optics import (
+    MIRROR_ROUGHNESS as MIRROR_ROUGHNESS,
+    SPECULAR_LOBES as SPECULAR_LOBES,
+    Optics as Optics,
+    SpecularLobe as SpecularLobe,
+    optics_of as optics_of,
+)
 from ._tracer import (
     Tracer as Tracer,
     TraceStats as TraceStats,

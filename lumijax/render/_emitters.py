@@ -29,7 +29,11 @@ _D65 = np.array([0.95047, 1.0, 1.08883])
 
 def _ellipse(a: float, b: float, n: int = 24) -> np.ndarray:
     phi = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
-    ring = np.stack([a * np.cos(phi), b * np.sin(phi), np.zeros(n)], axis=1)
+    # the n-gon through the ellipse would be (n/2) sin(2π/n)/π = 1.1 % smaller (n = 24): its
+    # corners are pushed out so that its area is the opening's π a b, and a traced image's
+    # (or a reflection's) solid angle of the source is the photometry's
+    k = math.sqrt(math.pi / (0.5 * n * math.sin(2 * math.pi / n)))
+    ring = np.stack([k * a * np.cos(phi), k * b * np.sin(phi), np.zeros(n)], axis=1)
     nxt = np.roll(ring, -1, axis=0)
     return np.stack([np.zeros((n, 3)), ring, nxt], axis=1)
 
