@@ -11,11 +11,11 @@ reruns") — costs milliseconds, not the second and a half of importing JAX.
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
 from typing import TYPE_CHECKING
 
+from ._lazy import lazy_names
 from ._version import __version__ as __version__
 from .errors import (
     ConfigError as ConfigError,
@@ -51,17 +51,8 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'lumijax' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value  # once: later look-ups are plain attribute reads
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY) | {"optimise"})
+__getattr__, __dir__ = lazy_names(__name__, globals(), _LAZY, extra=("optimise",))
+del lazy_names
 
 
 class _Package(types.ModuleType):

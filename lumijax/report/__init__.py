@@ -5,7 +5,7 @@ polar candela plots (``_polar``), each grid's picture (``_gridplots``), the lumi
 (``_html``, with other layers' ``ReportSection``) and its PDF (``_pdf``).
 Rendering imports pyvista lazily; see ``docs/report.md``."""
 
-import importlib
+from .._lazy import lazy_names
 
 # Imported on first use (PEP 562): most of the report needs JAX (the study, the design), and
 # the command line's dimmer-only rerun writes results.json through ResultSet without it.
@@ -42,14 +42,5 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'lumijax.report' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_names(__name__, globals(), _LAZY)
+del lazy_names

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from helpers import box_room
 
 from lumijax import _jit_cache
@@ -40,6 +41,19 @@ def test_the_lazy_package_keeps_its_public_names():
                           timeout=300, env=dict(os.environ, JAX_PLATFORMS="cpu"))
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["False", "True", "True", "lumijax.report._write", "True"]
+
+
+def test_a_lazy_name_that_is_not_there_names_its_package():
+    # lumijax and lumijax.report share one PEP 562 loader (lumijax/_lazy.py)
+    import lumijax.report
+
+    for package in (lumijax, lumijax.report):
+        with pytest.raises(AttributeError, match=f"module '{package.__name__}' has no "
+                                                 "attribute 'no_such_name'"):
+            package.no_such_name  # noqa: B018
+    assert {"write_report", "ResultSet"} <= set(dir(lumijax.report))
+    assert {"compute", "optimise", "Results"} <= set(dir(lumijax))
+    assert "lazy_names" not in dir(lumijax) and "lazy_names" not in dir(lumijax.report)
 
 
 def test_quick_writes_the_numbers_only_with_the_photometric_solve(write_study, tmp_path):
