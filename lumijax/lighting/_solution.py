@@ -162,6 +162,22 @@ class LightingSolution:
             return self.patch_illuminance()
         return self.fine.patch_direct + self.fine.patch_indirect
 
+    def display_patch_illuminance_at(self, dimmers) -> Float[np.ndarray, " patches"]:
+        """Irradiance on each display patch at a dimmer vector (lx): ``dimmers @
+        display_patch_illuminance()``, with one operator product (the dimmed radiosity) instead
+        of one per network, and the same shape as the row sums' product, so a process that
+        writes ``patches.vtp`` compiles that product once, not twice."""
+        d = np.asarray(dimmers, np.float64)
+        if self.fine is not None or self.transport is None:
+            return d @ self.display_patch_illuminance()
+        from ..radiosity import row_correction
+
+        with float64_scope(_float64(self)):
+            b = jnp.asarray((d @ self.coarse.radiosity)[:, None], _dtype(self))
+            c, _ = row_correction(self.transport.row_sums())
+            fb = np.asarray(self.transport.matmul(b * c.astype(b.dtype)[:, None]))[:, 0]
+        return d @ self.coarse.patch_direct + fb
+
     def display_radiosity_at(self, dimmers) -> Float[np.ndarray, " patches"]:
         """Radiosity of the display patches at any dimmer vector (lm/m²), exact, no solve."""
         return np.asarray(dimmers, np.float64) @ self.display.radiosity

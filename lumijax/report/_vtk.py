@@ -36,7 +36,7 @@ def write_patches_vtp(lighting, dimmers, path: str | Path) -> Path:
     b = lighting.display_radiosity_at(d)
     cells["radiosity_lm_m2"] = b
     cells["luminance_cd_m2"] = b / np.pi
-    cells["illuminance_lux"] = d @ lighting.display_patch_illuminance()
+    cells["illuminance_lux"] = lighting.display_patch_illuminance_at(d)
     cells["direct_lux"] = d @ lighting.display.patch_direct
     cells["reflectance"] = lighting.display_rho
     cells["material"] = np.asarray(p.material, np.int32)

@@ -92,4 +92,7 @@ def test_patches_file_opens_in_pyvista_with_consistent_light(write_study, tmp_pa
     e = mesh.cell_data["illuminance_lux"]
     np.testing.assert_allclose(b, mesh.cell_data["reflectance"] * e, rtol=1e-3,
                                atol=1e-6 * b.max())
+    # written with one product at the dimmers: the per-network irradiance, dimmed
+    np.testing.assert_allclose(e, study.scene.dimmers @ sol.patch_illuminance(), rtol=1e-5,
+                               atol=1e-6 * e.max())
     assert "radiosity_lm_m2:a" in mesh.cell_data and "radiosity_lm_m2:b" in mesh.cell_data
