@@ -163,8 +163,32 @@ def _merge(template, frames, scale: float):
 def fitting_rgb(scene, dimmers, n_points: int) -> np.ndarray:
     """Per-point uint8 colours of the merged fitting faces (``n_points`` per luminaire)."""
     level = dict(zip(scene.network_names, np.asarray(dimmers, np.float64), strict=True))
-    colours = np.stack([fitting_colour(lum, level[lum.network]) for lum in scene.luminaires])
+    # one colour per (lamp spectrum, network): a courtyard's 230 fittings have a dozen
+    seen: dict[tuple[int, str], np.ndarray] = {}
+    for lum in scene.luminaires:
+        key = (id(lum.spectrum), lum.network)
+        if key not in seen:
+            seen[key] = fitting_colour(lum, level[lum.network])
+    colours = np.stack([seen[id(lum.spectrum), lum.network] for lum in scene.luminaires])
     return np.round(np.repeat(colours, n_points, axis=0) * 255).astype(np.uint8)
+
+
+#: id(scene) → (scene, [(position, basis)] per luminaire); the scene is held, so its id stays
+#: its own. A report draws one scene a dozen times (each network alone): the fittings' frames
+#: (each a rotation built from the aim angles) are computed once.
+_FRAMES: dict[int, tuple[object, list]] = {}
+
+
+def _luminaire_frames(scene) -> list[tuple[np.ndarray, np.ndarray]]:
+    hit = _FRAMES.get(id(scene))
+    if hit is not None and hit[0] is scene:
+        return hit[1]
+    frames = [(np.asarray(lum.position, np.float64), _basis(lum.axis))
+              for lum in scene.luminaires]
+    if len(_FRAMES) >= 8:
+        _FRAMES.pop(next(iter(_FRAMES)))
+    _FRAMES[id(scene)] = (scene, frames)
+    return frames
 
 
 def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = True):
@@ -184,18 +208,15 @@ def _fittings(pl, scene, dimmers, cam: Camera, markers: bool, raycast: bool = Tr
                                       height=1.2, resolution=16))
         face_t = _template(pv.Disc(center=(0, 0, 1e-3), normal=(0, 0, 1), inner=0.0,
                                    outer=0.85, c_res=16))
-        frames = [(np.asarray(lum.position, np.float64), _basis(lum.axis))
-                  for lum in scene.luminaires]
+        frames = _luminaire_frames(scene)
         cans = _merge(can_t, frames, r)
         faces = _merge(face_t, frames, r)
         faces.point_data["rgb"] = fitting_rgb(scene, dimmers, face_t[0].shape[0])
         pl.add_mesh(cans, color=(0.12, 0.12, 0.13), lighting=False)
         pl.add_mesh(faces, scalars="rgb", rgb=True, lighting=False, show_scalar_bar=False)
-    for lum in scene.luminaires:
+    for lum in scene.luminaires if markers else ():
         axis = lum.axis / np.linalg.norm(lum.axis)
         pos = np.asarray(lum.position, np.float64)
-        if not markers:
-            continue
         length = 3.0 * dist / 10.0
         if raycast:
             _, hit = scene.raycaster.first_hit(pos[None], axis[None])
