@@ -138,7 +138,9 @@ def build_seen_surfaces(scene, observers, patches, surface_names, *,
             dirs = np.concatenate([_field_directions(np.asarray(f, np.float64), rays)
                                    for f in o.directions])
             origins = np.repeat(np.asarray(o.eye, np.float64)[None], len(dirs), axis=0)
-            tri, dist = caster.first_hit(origins, dirs)
+            # through clear panes (a glazed caster passes them): a facade seen through a
+            # window is seen, at its own luminance B/π (what a limit on it bounds)
+            tri, dist, _ = caster.first_hit_through(origins, dirs)
             hit = tri >= 0
             hit_n = np.zeros((len(dirs), 3))
             hit_n[hit] = np.cross(*(scene.triangles.vertices[tri[hit]][:, 1:] -

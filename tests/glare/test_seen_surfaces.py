@@ -149,3 +149,24 @@ def test_a_limit_that_cannot_be_evaluated_warns_naming_the_key(studied):
     with pytest.warns(LumijaxWarning, match=r"observers\[0\]\.max_luminance_cdm2"):
         r = lumijax.compute(study, shadows=False)
     assert "surfaces" not in r.glare.to_dict()["eye"]
+
+
+def test_a_surface_behind_a_clear_pane_is_seen(studied, tmp_path):
+    """A clear pane across the whole field in front of the eye hides nothing: the same wall
+    patches are seen as without it (the field's rays pass panes; a limit bounds the wall's own
+    B/π)."""
+    from lumijax.glare import build_observers, build_seen_surfaces
+
+    study, lit = studied
+    pane = rectangle([-20, 2.9, -20], [40, 0, 0], [0, 0, 40], "glass")  # y = 2.9, facing −y
+    text = _text(0.9 * L_FOOT) + material("glass", 0.0, transmittance=0.88, kind="clear") + pane
+    (tmp_path / "s.toml").write_text(text)
+    glazed = lumijax.load_study(tmp_path / "s.toml")
+    names = [g.name for g in glazed.config.geometry]
+    patches = lit.lighting.coarse.patches
+    wall = lit.glare.surfaces.surfaces.index("wall")
+    bare = lit.glare.surfaces.links_of(0, wall)
+    seen = build_seen_surfaces(glazed.scene, build_observers(glazed.config, glazed.scene),
+                               patches, names)
+    assert len(bare) > 10
+    assert np.array_equal(np.sort(seen.links_of(0, seen.surfaces.index("wall"))), np.sort(bare))
