@@ -21,8 +21,10 @@ __all__ = ["ConstraintConfig", "DesignObjective", "ConstrainedMethod", "CRITERIA
 #: factors and its power model: input watts, standby, dimming curves) or the target-map misfit
 #: of the grids with a ``target_csv``.
 DesignObjective = Literal["power", "leni", "misfit"]
-#: ``method``: scipy's SLSQP or trust-constr, fed by JAX gradients and Jacobians.
-ConstrainedMethod = Literal["slsqp", "trust-constr"]
+#: ``method``: scipy's SLSQP or trust-constr, fed by JAX gradients and Jacobians, or the
+#: augmented Lagrangian with L-BFGS-B inner solves fed one reverse pass a step (thousands of
+#: aims); ``"auto"`` picks by the number of free variables (``optimise._augmented``).
+ConstrainedMethod = Literal["auto", "slsqp", "trust-constr", "augmented_lagrangian"]
 
 #: What a ``[[optimise.constraints]]`` entry may bound. Per grid: ``avg``, ``min``, ``max``
 #: (lx), ``u0`` (Emin/Eavg), ``luminance`` (ρ·Emax/π, cd/m², needs the grid's reflectance),

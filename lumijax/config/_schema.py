@@ -567,7 +567,7 @@ class OptimiseConfig(_Model):
     # a constrained design (docs/optimise.md, "Design to a standard"; the models are in
     # _design_goals.py): None keeps the least-squares fit above
     objective: DesignObjective | None = None
-    method: ConstrainedMethod = "slsqp"
+    method: ConstrainedMethod = "auto"
     constraints: list[ConstraintConfig] = []
     constraint_tolerance: Annotated[float, Field(gt=0, le=0.1)] = 1e-3
     smoothing: Annotated[float, Field(gt=0, le=0.1)] = 1e-3

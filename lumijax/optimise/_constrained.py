@@ -222,8 +222,14 @@ def solve_constrained(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-
     """Minimise ``problem.f`` over ``lo ≤ x ≤ hi`` with every margin ``g(x, smooth) ≥ 0``.
 
     ``tolerance`` is the relative violation accepted (margins ≥ −tolerance). Returns the last
-    point (clipped to the box) with its KKT multipliers and prices.
+    point (clipped to the box) with its KKT multipliers and prices. ``method``: a name of
+    ``_augmented.CONSTRAINED_METHODS`` (``"auto"`` picks by the problem's size).
     """
+    if method not in ("slsqp", "trust-constr"):  # "auto", "augmented_lagrangian": _augmented
+        from ._augmented import CONSTRAINED_METHODS
+
+        return CONSTRAINED_METHODS[method]().solve(problem, x0, lo, hi, smooth=smooth,
+                                                   max_steps=max_steps, tolerance=tolerance)
     t0 = time.perf_counter()
     x = np.clip(np.asarray(x0, np.float64), lo, hi)
     schedule = [smooth] if smooth >= _COARSE else [_COARSE, smooth]

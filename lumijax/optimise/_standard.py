@@ -404,7 +404,7 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
         "verdict": verdict, "objective": ocfg.objective, "unit": unit,
         "objective_start": start_objective,
         "objective_end": float(objective(light)),
-        "method": ocfg.method, "smoothing": eps, "tolerance": tol,
+        "method": best.method, "smoothing": eps, "tolerance": tol,
         "violation": float(best.violation), "iterations": int(best.iterations),
         "evaluations": int(best.evaluations),
         "starts": {"count": len(runs), "feasible": len(feasible), "agreed": int(agreed),
@@ -416,7 +416,7 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
         constrained["infeasibility"] = infeasibility.to_dict()
         unmet = [f"infeasible: {s}" for s in infeasibility.to_dict()["sentences"]] + unmet
     opt = Optimisation(
-        solver=f"constrained ({ocfg.method})", variables=tuple(ocfg.variables),
+        solver=f"constrained ({best.method})", variables=tuple(ocfg.variables),
         iterations=int(best.iterations), converged=bool(best.success),
         objective_history=[float(v) for v in best.history], design=design,
         start=params.start, aimed=tuple(setup.names) if setup.aims else (),

@@ -1,0 +1,198 @@
+"""The augmented-Lagrangian constrained method (``optimise._augmented``) against SLSQP and an
+independent linear programme (HiGHS, point by point) on small problems: the same optimum within
+1 %, the same active constraints, the same prices; its gradient (one reverse pass) against the
+contraction of the structured Jacobian; the registry and the automatic choice by size."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from lumijax.errors import ConfigError
+from lumijax.lighting._solution import float64_scope
+from lumijax.optimise import _optimise
+from lumijax.optimise._augmented import (
+    AUTO_SLSQP_VARIABLES,
+    CONSTRAINED_METHODS,
+    _phr_value_and_grad,
+    resolve_method,
+)
+from lumijax.optimise._constrained import (
+    DesignProblem,
+    _f_grad,
+    _g_and_jac_traced,
+    solve_constrained,
+)
+from lumijax.optimise._constraints import (
+    GridAverage,
+    GridMinimum,
+    GridUniformity,
+    PowerModel,
+)
+from lumijax.optimise._models import DimmerLight
+from lumijax.optimise._standard import _power_model
+
+from .test_constrained import POWER, _c, _light, _lp
+
+jax.config.update("jax_enable_x64", True)
+
+
+def _dimmer_problem(cons, a):
+    return DesignProblem(DimmerLight(jnp.asarray(a), None), PowerModel(jnp.asarray(POWER)),
+                         cons, objective_scale=float(POWER.sum()))
+
+
+def test_augmented_lagrangian_meets_the_lp_and_slsqp():
+    """Eavg ≥, Emin ≥, U0 ≥ over three dimmers (linear per point: the LP is the exact optimum,
+    test_constrained's problem): the augmented Lagrangian's least power is the LP's within the
+    aggregation's ε, its active set the LP's, its multipliers SLSQP's KKT multipliers."""
+    a = _light()
+    n = a.shape[1]
+    prob = _dimmer_problem((_c(GridAverage, 220.0, 0, n), _c(GridMinimum, 50.0, 0, n),
+                            _c(GridUniformity, 0.3, 0, n)), a)
+    al = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3),
+                           method="augmented_lagrangian")
+    sq = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3), method="slsqp")
+    lp = _lp(a, POWER, avg=220.0, emin=50.0, u0=0.3)
+    assert al.method == "augmented_lagrangian" and al.success
+    assert al.violation <= 1e-6
+    assert al.objective == pytest.approx(lp.fun, rel=2e-3)
+    assert al.objective == pytest.approx(sq.objective, rel=1e-3)
+    e = al.x @ a  # the design itself, not the solver's margins
+    assert e.mean() >= 220 * (1 - 1e-6) and e.min() >= 50 * (1 - 1e-6)
+    assert e.min() / e.mean() >= 0.3 * (1 - 1e-6)
+    mean = a.mean(axis=1)
+    lp_active = [abs(lp.x @ mean - 220) < 1e-6, abs((lp.x @ a).min() - 50) < 1e-6 * 50,
+                 abs((lp.x @ a).min() / (lp.x @ mean) - 0.3) < 1e-6]
+    assert list(al.active) == lp_active == list(sq.active)
+    # λ of the last multiplier update are the KKT multipliers SLSQP's NNLS recovers
+    np.testing.assert_allclose(al.prices, sq.prices, rtol=0.02, atol=1e-9)
+
+
+def test_augmented_lagrangian_price_predicts_a_resolve():
+    """The final multiplier of the active Eavg floor prices a 2 % tightening: the LP solved at
+    both bounds (independent of the method) costs what it predicts within 5 % (the envelope
+    theorem; SLSQP's prices are checked the same way in test_constrained)."""
+    a = _light()
+    n = a.shape[1]
+
+    def solve(avg):
+        prob = _dimmer_problem((_c(GridAverage, avg, 0, n), _c(GridMinimum, 50.0, 0, n),
+                                _c(GridUniformity, 0.3, 0, n)), a)
+        return solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3),
+                                 method="augmented_lagrangian")
+
+    base = solve(220.0)
+    assert base.active[0] and base.prices[0] > 0
+    predicted = base.prices[0] * 4.4
+    lp_cost = (_lp(a, POWER, avg=224.4, emin=50.0, u0=0.3).fun
+               - _lp(a, POWER, avg=220.0, emin=50.0, u0=0.3).fun)
+    assert lp_cost > 0
+    assert predicted == pytest.approx(lp_cost, rel=0.05)
+    assert solve(224.4).objective - base.objective == pytest.approx(lp_cost, rel=0.05)
+
+
+def test_augmented_lagrangian_reports_an_infeasible_problem():
+    """An Eavg floor above what every dimmer at full output gives: the method returns (no
+    success) with the shortfall as its violation, for the design layer's infeasibility proof."""
+    a = _light()
+    n = a.shape[1]
+    full = float(a.sum(axis=0).mean())
+    prob = _dimmer_problem((_c(GridAverage, 1.2 * full, 0, n),), a)
+    run = solve_constrained(prob, np.full(3, 0.5), np.zeros(3), np.ones(3),
+                            method="augmented_lagrangian")
+    assert not run.success
+    assert run.violation == pytest.approx(1 - 1 / 1.2, rel=1e-3)
+    np.testing.assert_allclose(run.x, 1.0, atol=1e-6)
+
+
+def test_registry_and_the_automatic_choice():
+    assert set(CONSTRAINED_METHODS) == {"auto", "slsqp", "trust-constr", "augmented_lagrangian"}
+    assert resolve_method("auto", AUTO_SLSQP_VARIABLES) == "slsqp"
+    assert resolve_method("auto", AUTO_SLSQP_VARIABLES + 1) == "augmented_lagrangian"
+    assert resolve_method("slsqp", 10**6) == "slsqp"
+    with pytest.raises(ConfigError, match="augmented_lagrangian") as err:
+        CONSTRAINED_METHODS["lancelot"]
+    assert err.value.key == "optimise.method"
+    # "auto" on a small problem is SLSQP, and says so
+    a = _light()
+    n = a.shape[1]
+    prob = _dimmer_problem((_c(GridAverage, 220.0, 0, n),), a)
+    run = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3), method="auto")
+    assert run.method == "slsqp"
+
+
+def _aim_problem(study, results, cons_of):
+    ocfg = _optimise._settings(study, dict(objective="power", variables=["dimmers", "aims"],
+                                           tilt_range_deg=(-8.0, 8.0),
+                                           pan_range_deg=(-8.0, 8.0)))
+    setup = _optimise._setup(study, results, ocfg)
+    n = len(study.scene.grids[0])
+
+    def c(cls, bound, sense=1):
+        return cls(label=cls.__name__, key="k", unit="", sense=sense, bound=jnp.asarray(bound),
+                   ref=abs(bound), start=0, stop=n)
+
+    stats = results.grids["wall"].stats
+    return DesignProblem(setup.model, _power_model(setup, study.scene), cons_of(c, stats),
+                         objective_scale=80.0), setup.params
+
+
+def _AIM_CONSTRAINTS(c, s):
+    return c(GridAverage, 0.6 * s["avg"]), c(GridUniformity, 0.8 * s["u0"])
+
+
+@pytest.mark.slow  # two constrained solves through the aim model: ~10 s contended, compiles
+def test_augmented_lagrangian_matches_slsqp_with_aims(facade_results):
+    """Dimmers + the four spots' aims (±8°) on the optimiser tests' facade, Eavg ≥ 60 % and
+    U0 ≥ 80 % of the start's: non-convex, but from the same start both methods reach the same
+    least power within 1 % (measured: equal to 1e-9), the same active constraints and prices."""
+    study, results = facade_results
+    with float64_scope():
+        prob, params = _aim_problem(study, results, _AIM_CONSTRAINTS)
+        lo, hi = np.asarray(params.lower), np.asarray(params.upper)
+        x0 = np.asarray(params.x0)
+        al = solve_constrained(prob, x0, lo, hi, method="augmented_lagrangian")
+        sq = solve_constrained(prob, x0, lo, hi, method="slsqp")
+        assert al.success and sq.success
+        start = float(_f_grad(prob, jnp.asarray(x0))[0]) * 80.0
+        assert al.objective < 0.8 * start  # the aims and dimmers really moved
+        assert al.objective == pytest.approx(sq.objective, rel=0.01)
+        assert list(al.active) == list(sq.active) == [True, True]
+        np.testing.assert_allclose(al.prices, sq.prices, rtol=0.05)
+        # the design meets the constraints on the model's exact (unsmoothed) criteria
+        light = prob.light(jnp.asarray(al.x))
+        for con in prob.constraints:
+            assert float(con.margin(light, None)) >= -1e-3
+
+
+def test_one_reverse_pass_equals_the_jacobian_contraction(facade_results):
+    """∇Φ by one reverse pass through the aim model (pair kernels, LU reflection) against
+    ∇f − Σ max(0, λ − ρg) ∇g with ∇g the rows of the structured Jacobian
+    (``AimLight.linearise``, itself checked against ``jax.jacrev``), at aims away from the
+    start where the inter-reflected change is not zero."""
+    study, results = facade_results
+    with float64_scope():
+        # the previous test's constraints: the same compiled programs serve both
+        prob, params = _aim_problem(study, results, _AIM_CONSTRAINTS)
+        rng = np.random.default_rng(5)
+        lo, hi = np.asarray(params.lower), np.asarray(params.upper)
+        x = jnp.asarray(lo + (hi - lo) * rng.uniform(size=lo.shape))
+        lam = jnp.asarray([5.0, 5.0])  # large enough that both enter ∇Φ (λ − ρg > 0)
+        rho, eps = jnp.asarray(1.0), jnp.asarray(1e-2)
+        (phi, (f, g)), grad = _phr_value_and_grad(prob, x, lam, rho, eps)
+        g_ref, jac = _g_and_jac_traced(prob, x, eps)
+        _, grad_f = _f_grad(prob, x)
+        shifted = jnp.maximum(0.0, lam - rho * g_ref)
+        assert int(jnp.sum(shifted > 0)) == 2
+        ref = grad_f - shifted @ jac
+        np.testing.assert_allclose(np.asarray(g), np.asarray(g_ref), rtol=1e-12, atol=1e-12)
+        scale = float(jnp.max(jnp.abs(ref)))
+        np.testing.assert_allclose(np.asarray(grad), np.asarray(ref), rtol=1e-7,
+                                   atol=1e-9 * scale)
+        k = len(study.scene.networks)
+        assert float(jnp.max(jnp.abs(grad[k:]))) > 1e-3 * scale  # the aims' part is real
+        want = f + (jnp.sum(shifted**2) - jnp.sum(lam**2)) / (2 * rho)
+        assert float(phi) == pytest.approx(float(want), rel=1e-12)
