@@ -344,12 +344,20 @@ def study_toml(c: Courtyard, files: dict[str, str], generator_args: str) -> str:
             for s, (_, z1) in enumerate(c.levels):
                 geo("box", min=[0, 0, z1 - c.cornice_height[s]], max=[W, c.cornice_depth, z1],
                     material='"stone"', group=f'"{f}{b + 1:02d}"')
+        # A court corner holds the end pier of the facade before (in S, E, N, W order) and the
+        # start pier of this one: their cornice boxes would overlap on cornice_depth² and
+        # their top, bottom and back faces lie on each other facing the same way (light
+        # counted twice). The earlier facade's box runs to the corner; this one's starts where
+        # that one's front face is, so the two make one L-shaped cornice.
+        before = FACADES[FACADES.index(f) - 1]
+        start = c.cornice_depth if before in c.facades else 0.0
         for s, (z0, z1) in enumerate(c.levels):  # corner piers: wall and cornice
             top = z1 - c.cornice_height[s]
             for x in (0.0, L - c.corner):
                 geo("rectangle", origin=[x, 0, z0], u=[0, 0, top - z0], v=[c.corner, 0, 0],
                     material='"stone"', group=f'"{f}"')
-                geo("box", min=[x, 0, top], max=[x + c.corner, c.cornice_depth, z1],
+                x0 = x + start if x == 0.0 else x
+                geo("box", min=[x0, 0, top], max=[x + c.corner, c.cornice_depth, z1],
                     material='"stone"', group=f'"{f}"')
     out.append("")
 

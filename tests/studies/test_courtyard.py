@@ -101,6 +101,35 @@ def _towards_wall(p):
     return np.array([0.0, -1.0, 0.0]) if p[1] < 1.0 else np.array([1.0, 0.0, 0.0])
 
 
+def test_corner_cornices_meet_without_coincident_faces(gen, tmp_path):
+    """At each court corner the two facades' cornice boxes make one L: no face lies on another
+    facing the same way (the load's warning: light counted twice), and no hole is left."""
+    import warnings
+
+    from lumijax.errors import LumijaxWarning
+
+    c = gen.Courtyard(bays=1, floods_per_facade=1, paths_per_path=1, target_patches=200,
+                      optimise=False)
+    gen.write_study(c, tmp_path / "study.toml", tmp_path / "assets", "test")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        study = load_study(tmp_path / "study.toml")
+    twice = [str(w.message) for w in caught
+             if issubclass(w.category, LumijaxWarning) and "counted twice" in str(w.message)]
+    assert twice == []
+    # straight down onto each corner square's three cells (cornice depth d, corner pier p):
+    # the corner cell, and the two arms; every storey's cornice top is hit (attic first)
+    L, d, p = c.side, c.cornice_depth, c.corner
+    cells = []
+    for cx, cy, sx, sy in ((0, 0, 1, 1), (L, 0, -1, 1), (L, L, -1, -1), (0, L, 1, -1)):
+        for u, v in ((d / 2, d / 2), ((d + p) / 2, d / 2), (d / 2, (d + p) / 2)):
+            cells.append((cx + sx * u, cy + sy * v))
+    pos = np.array([(x, y, c.levels[-1][1] + 1.0) for x, y in cells])
+    tri, dist = study.scene.raycaster.first_hit(pos, np.tile([0.0, 0.0, -1.0], (len(pos), 1)))
+    assert np.all(tri >= 0)
+    np.testing.assert_allclose(dist, 1.0, atol=1e-6)
+
+
 def test_level_of_detail_keeps_the_wall_and_rounds_the_columns(gen):
     """Finer levels add triangles; the flat surfaces keep their area, and the columns' area is
     that of half n-gon prisms (n·r·sin(π/n) per half perimeter), tending to π·r per half."""
