@@ -265,11 +265,13 @@ class LightingSolution:
                     coarse.radiosity_xyz[d.network] += shot.radiosity_xyz[q]
                     point_xyz[d.network] += shot.point_xyz[q]
             if fine is not None:
-                from ..radiosity._final_gather import reflect_onto_fine
+                from ..radiosity._final_gather import fine_transmission, reflect_onto_fine
 
                 rb, rxyz, rind = reflect_onto_fine(
                     fine.gather, fine.rho, np.stack([_needed(d.fine) for d in deltas]),
-                    [self.spectral.weights(d.spectrum) for d in deltas], shot.value)
+                    [self.spectral.weights(d.spectrum) for d in deltas], shot.value,
+                    transmission=fine_transmission(self.spectral, self.coarse.patches,
+                                                   fine.patches))
                 for q, d in enumerate(deltas):
                     fine.patch_direct[d.network] += d.fine
                     fine.patch_indirect[d.network] += rind[q]

@@ -189,7 +189,10 @@ def cached_sampled_operator(
     rays need them). ``progress(done, total)`` is called per batch of a build."""
     settings = settings or SampledSettings()
     occ = np.asarray(occluders, np.float64)
-    key = operator_key(patches, occluders=occ, sampled=settings, dtype=np.dtype(dtype))
+    glazing = {} if caster is None or caster.glazing_key is None else {
+        "glazing": caster.glazing_key}  # the rays carry the panes' τ(θ), as the blocks' do
+    key = operator_key(patches, occluders=occ, sampled=settings, dtype=np.dtype(dtype),
+                       **glazing)
 
     def build():
         c = caster if caster is not None else RayCaster(occ)

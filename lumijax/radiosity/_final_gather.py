@@ -9,11 +9,15 @@ the solve run on coarse **elements** (about ``[solver] operator_patches``), and 
   cosine-weighted ray gather used for calculation points (``build_gather``, piecewise-constant
   element radiosity),
 
-then reflects both: ``B_fine(λ) = ρ_fine(λ) (E_direct s(λ) + E_gath(λ))``, per emission group
-and sample wavelength. This is the classical two-pass final gather: its only approximations
+then reflects both: ``B_fine(λ) = ρ_fine(λ) H(λ)``, ``H = E_direct s(λ) + E_gath(λ)``, per
+emission group and sample wavelength; a fine patch of a diffuser (``kind = "diffuse"``) also
+passes on what its other face receives, ``B_fine = ρ H + τ H[partner]``, the coupling of the
+coarse solve (``_transmission.py``) on the fine faces. This is the classical two-pass final gather: its only approximations
 are the one bounce from a coarse element (its radiosity is an area mean) and the ray sampling.
 The stored fine gather is a sparse ``(fine patches × elements)`` map, so re-shooting a changed
-luminaire (``replace_luminaire``) also updates the fine level without a ray.
+luminaire (``replace_luminaire``) also updates the fine level without a ray. Its rays pass clear
+panes (``GlazedCaster.first_hit_through``), a link weighing τ(θ) of each pane crossed, as the
+gather onto grids does (docs/materials.md).
 
 Memory is linear in the fine patch count: the gather is cast in chunks of fine patches and
 applied as one sparse product, never as a dense ``(links, groups, wavelengths)`` array.
@@ -31,7 +35,8 @@ from ..kernels import length_tolerance
 from ..parallel import Executor, current_executor
 from ._gather import GatherOperator
 
-__all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather", "reflect_onto_fine"]
+__all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather",
+           "fine_transmission", "reflect_onto_fine"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,13 +120,16 @@ def _fine_chunk(span, *, origins, normals, local, elements, caster, tri_normals,
     frames = _frames(normals[s:s + chunk], rng)
     dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
     o = np.repeat(p, rays, axis=0)
-    tri, dist = caster.first_hit(o, dirs)
+    # clear panes pass the ray on, carrying τ(θ) of each (as build_gather's rays do); a plain
+    # caster's rays carry 1
+    tri, dist, carried = caster.first_hit_through(o, dirs)
     hit = tri >= 0
     # one-sided surfaces, as in build_gather: a back face blocks but sends nothing
     hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
     elem = _element_of(elements, o[hit] + dirs[hit] * dist[hit, None], tri[hit])
     key = np.repeat(np.arange(len(p), dtype=np.int64), rays)[hit] * elements.n + elem
-    uniq, counts = np.unique(key, return_counts=True)
+    uniq, inverse = np.unique(key, return_inverse=True)
+    counts = np.bincount(inverse.ravel(), weights=carried[hit], minlength=len(uniq))
     return ((uniq // elements.n + s).astype(np.int32), (uniq % elements.n).astype(np.int32),
             (counts / rays).astype(np.float32))
 
@@ -143,9 +151,13 @@ def reflect_onto_fine(
     direct: Float[np.ndarray, "src fine"],
     weights: list,
     b_elements: Float[np.ndarray, "elements src w"],
+    transmission: tuple | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
     """``(radiosity (src, fine), radiosity_xyz (src, 3, fine), indirect (src, fine))`` of rows
-    with these direct irradiances, spectral weights ``(s, H)`` and element radiosities."""
+    with these direct irradiances, spectral weights ``(s, H)`` and element radiosities.
+
+    ``transmission``: ``(tau (fine, W), partner (fine,))`` of :func:`fine_transmission` (None:
+    no diffuser), so a diffuser's fine patch leaves ``ρ H + τ H[partner]`` (lm/m²)."""
     ne, nsrc, nw = b_elements.shape
     # one sparse product for every (source, wavelength) column: (fine, src·W)
     e = (_sparse(gather) @ np.asarray(b_elements, np.float64).reshape(ne, nsrc * nw))
@@ -154,9 +166,25 @@ def reflect_onto_fine(
     h = np.stack([w[1] for w in weights])  # (src, 3, W)
     ind_xyz = np.einsum("scw,fsw->scf", h, e)
     e += np.asarray(direct, np.float64).T[:, :, None] * s[None]  # total irradiance, spectral
-    e *= rho[:, None, :]
-    b_xyz = np.einsum("scw,fsw->scf", h, e)
+    b = e * rho[:, None, :]
+    if transmission is not None:  # the other face's irradiance, passed on diffusely
+        tau, partner = transmission
+        b += np.asarray(tau, np.float64)[:, None, :] * e[np.asarray(partner)]
+    b_xyz = np.einsum("scw,fsw->scf", h, b)
     return b_xyz[:, 1], b_xyz, ind_xyz[:, 1]
+
+
+def fine_transmission(spectral, elements, fine) -> tuple | None:
+    """``(tau (fine, W), partner (fine,))``: the diffuse transmittance of each fine patch at the
+    solve's wavelengths (from the elements' table, as :func:`fine_reflectance`) and its other
+    face among the fine patches (``back_partners``); None when no material transmits
+    diffusely."""
+    if getattr(spectral, "tau", None) is None:
+        return None
+    from ._transmission import back_partners
+
+    tau = _by_material(spectral.tau, elements, fine)
+    return tau, back_partners(fine, tau.max(axis=1) > 0)
 
 
 def element_direct(gscene, fine, elements, *, progress=None):
@@ -261,7 +289,9 @@ def final_gather(
     t = time.perf_counter()
     rho = fine_reflectance(spectral, elements, fine)
     weights = [spectral.weights(sp) for sp in spectra]
-    radiosity, b_xyz, indirect = reflect_onto_fine(gather, rho, direct, weights, b_elements)
+    radiosity, b_xyz, indirect = reflect_onto_fine(
+        gather, rho, direct, weights, b_elements,
+        transmission=fine_transmission(spectral, elements, fine))
     timing["fine_reflect"] = time.perf_counter() - t
     return FineLevel(
         patches=fine, gather=gather, rho=rho, direct=np.asarray(direct), indirect=indirect,
@@ -273,7 +303,12 @@ def final_gather(
 def fine_reflectance(spectral, elements, fine) -> Float[np.ndarray, "fine w"]:
     """Per-fine-patch reflectance at the solve's wavelengths, taken from the elements' table
     (both levels cut the same triangles, so every material is on some element)."""
+    return _by_material(spectral.rho, elements, fine)
+
+
+def _by_material(values, elements, fine) -> np.ndarray:
+    """``(fine, W)``: the elements' per-patch ``values`` (elements, W), looked up by material."""
     n_mat = int(max(np.max(elements.material, initial=-1), np.max(fine.material, initial=-1))) + 1
-    table = np.zeros((n_mat, spectral.rho.shape[1]))
-    table[elements.material] = spectral.rho
+    table = np.zeros((n_mat, values.shape[1]))
+    table[elements.material] = values
     return table[fine.material]

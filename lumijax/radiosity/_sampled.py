@@ -15,6 +15,13 @@ pair differ), and the solve, the cache, ``replace_luminaire`` and the optimiser 
 object. Rows never sum above 1 (N rays, at most N hits), and a closed room's rows sum to
 exactly 1 minus the rays that met a back face.
 
+**Clear glass** (``kind = "clear"``, a :class:`~lumijax.scene.GlazedCaster`): a ray passes a
+pane as a gather ray does (``first_hit_through``) and its hit behind weighs τ(θ) of every
+pane crossed, θ the ray's own incidence, so ``F_ij ≈ Σ_hits Π τ(θ) / N``: the exact angle of
+each ray, where the block operator samples it with one or a few visibility rays per pair. The
+pane itself is not hit, so its own diffuse reflection (``reflectance``, which should be 0 or
+near it for clear glass: docs/materials.md) is not seen, and the rows still sum to at most 1.
+
 The work is cut into batches of patches (:func:`sample_batch`: a batch in, three link arrays
 out, independent of every other batch) so that a cluster can map it; :func:`build_sampled`
 runs them in order and assembles the operator.
@@ -289,7 +296,9 @@ def sample_batch(
     ``weight = A_i · hits / N`` (m², float32), sorted by receiver then sender, duplicates
     merged; ``counts`` has ``rays`` and ``ray_s`` (time in Embree). ``front``: each triangle's
     front normal (a ray meeting a back face is blocked and carries nothing: surfaces are
-    one-sided). Depends only on its arguments, so batches can run anywhere in any order.
+    one-sided). With clear glass (a :class:`~lumijax.scene.GlazedCaster`) a ray passes every
+    pane it meets and its hit behind counts τ(θ) of each pane crossed, not 1 (module
+    docstring). Depends only on its arguments, so batches can run anywhere in any order.
     """
     n_rays = settings.rays_per_patch
     idx = np.arange(start, stop)
@@ -303,17 +312,29 @@ def sample_batch(
     o = _origins(patches.vertices[start:stop], n_rays, rng.uniform(size=(len(idx), 2)))
     o = (o + lift * normal[:, None]).reshape(-1, 3)
     t = time.perf_counter()
-    tri, _, uv = caster.first_hit_uv(o, dirs)
+    glazed = getattr(caster, "glazing_key", None) is not None
+    if glazed:  # clear panes pass the ray on to what lies behind, carrying τ(θ) of each
+        tri, dist, carried = caster.first_hit_through(o, dirs)
+        uv = None
+    else:
+        tri, _, uv = caster.first_hit_uv(o, dirs)
     ray_s = time.perf_counter() - t
     hit = np.flatnonzero(tri >= 0)
     th = tri[hit]
     hit = hit[np.einsum("ij,ij->i", dirs[hit], front[th]) < 0]
     th = tri[hit]
     recv = hit // n_rays + start
-    j = locator(None, th, uv[hit])
+    if glazed:  # the hit point from the distance (the passes through panes lose Embree's uv)
+        j = locator(o[hit] + dist[hit, None] * dirs[hit], th)
+    else:
+        j = locator(None, th, uv[hit])
     keep = j >= 0
     key = recv[keep] * patches.n + j[keep]
-    uniq, counts = np.unique(key, return_counts=True)
+    if glazed:
+        uniq, inverse = np.unique(key, return_inverse=True)
+        counts = np.bincount(inverse.ravel(), weights=carried[hit][keep], minlength=len(uniq))
+    else:
+        uniq, counts = np.unique(key, return_counts=True)
     r = (uniq // patches.n).astype(np.int32)
     weight = (patches.area[r] * counts / n_rays).astype(np.float32)
     return r, (uniq % patches.n).astype(np.int32), weight, dict(rays=len(o), ray_s=ray_s)

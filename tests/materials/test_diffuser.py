@@ -124,6 +124,33 @@ def test_light_through_a_black_room_panel_by_hand(rooms):
     assert through == pytest.approx(TAU * 1000.0 / 6.0, rel=0.01)
 
 
+def test_the_fine_faces_of_a_panel_pass_on_the_other_face_by_hand(rooms):
+    """The two-level solve's fine patches of the panel couple their faces as the elements do:
+    with ρ = 0 everywhere the fine back face emits exactly τ × the fine front face's direct
+    flux, Φ τ / 6 (the hand figure above); without the coupling it would emit nothing."""
+    from lumijax.direct import direct_illuminance
+    from lumijax.lighting._spectral import SpectralSetup
+    from lumijax.radiosity import mesh_patches
+    from lumijax.radiosity._final_gather import final_gather
+
+    study, res = rooms
+    sc, elements = study.scene, res.lighting.coarse.patches
+    tri = sc.triangles
+    fine = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=0.25)
+    tau = np.array([m.tau for m in sc.materials])[elements.material][:, None]
+    black = SpectralSetup(None, np.zeros((elements.n, 1)), tau)  # photometric, ρ = 0
+    direct = direct_illuminance(sc, fine.centroid, fine.normal).by_network  # (1, fine) lx
+    level = final_gather(fine, elements, sc.raycaster, black, [None],
+                         np.zeros((elements.n, 1, 1)), direct, rays=16)
+    front, back = _sides(fine)
+    assert back.sum() == front.sum() > 0
+    through = float(np.sum(fine.area[back] * level.radiosity[0, back]))
+    assert through == pytest.approx(TAU * 1000.0 / 6.0, rel=0.01)
+    assert through == pytest.approx(TAU * float(np.sum(fine.area[front] * direct[0, front])),
+                                    rel=1e-9)
+    assert np.all(level.radiosity[0, ~back] == 0.0)  # ρ = 0: nothing else leaves a surface
+
+
 def test_transmission_on_a_closed_solid_with_nothing_inside_is_refused(tmp_path):
     (tmp_path / "s.toml").write_text(study_text(
         material("opal", 0.3, transmittance=0.5, kind="diffuse"),
