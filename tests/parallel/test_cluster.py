@@ -84,7 +84,9 @@ def test_a_worker_killed_mid_build_leaves_a_whole_operator_in_the_cache(client, 
     tri = sc.triangles
     from lumijax.radiosity import mesh_patches
 
-    patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=0.5)
+    # 0.8 m: ~580 patches, ~680 block pairs in 16 tasks, enough for the kill to land mid-build
+    # (0.5 m: ~1,300 patches and 3,040 pairs built twice made this the suite's slowest test)
+    patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=0.8)
     settings = PartitionSettings(max_block=16)
     part = partition(patches, max_block=16, occluders=sc.raycaster)
     local = build_operator(patches, part, sc.raycaster, occluder_triangles=tri.vertices)
