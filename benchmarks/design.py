@@ -4,6 +4,7 @@ meeting each grid's Eavg floor (its target, else 60 % of the start's average) an
 the dimmers alone and over dimmers + aims (±5°).
 
     python benchmarks/design.py [--quick] [--study PATH] [--aims] [--profile]
+        [--method auto|slsqp|augmented_lagrangian] [--courtyard BAYS]
 
 Prints: variables, constrained steps (SLSQP), function evaluations, wall time of the design
 step (after the study's compute; its first call includes compilation, so the same design is
@@ -11,6 +12,11 @@ timed again), the largest exact constraint violation at the end, the verdict and
 before → after. Goal: dimmer-only designs under 2 s, aims under 5 minutes on this machine.
 ``--quick`` runs the optimiser tests' small facade instead (a smoke run, numbers not for the
 record). ``--profile`` prints cProfile's top functions (cumulative) of each first design call.
+``--method`` picks the constrained method (default ``auto``: SLSQP up to 1,000 free variables,
+the augmented Lagrangian above; docs/optimise.md). ``--courtyard BAYS`` runs a four-facade
+courtyard of BAYS bays a facade instead (``studies/courtyard/make_courtyard.py``'s full study
+with fewer bays, one level of patches, written to a temporary folder): 40 is the full
+``configs/courtyard.toml`` (3,000 luminaires), 10 a mid-size one (776 luminaires).
 
 Where the aims design's time went (demo, 230 re-aimed luminaires, 12 constraints, contended,
 docs/optimise.md): the Jacobian of the margins by ``vmap`` over reverse passes cost 23× the
@@ -43,6 +49,30 @@ def constraints_for(results, start_stats):
     return out
 
 
+def courtyard_study(bays: int) -> Path:
+    """The full courtyard study (``make_courtyard.FULL``) with ``bays`` bays a facade, written
+    to a temporary folder: 40 bays is ``configs/courtyard.toml``'s scene (there: two levels of
+    patches); fewer bays run on one level (operator_patches off; 75 patches asked a bay),
+    with the floods scaled with the facades' length."""
+    import dataclasses
+    import sys
+    import tempfile
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "studies" / "courtyard"))
+    import make_courtyard as mc
+
+    c = mc.FULL
+    if bays != c.bays:
+        c = dataclasses.replace(
+            c, name=f"Courtyard, 4 facades x {bays} bays", bays=bays,
+            floods_per_facade=max(2, round(c.floods_per_facade * bays / c.bays)),
+            target_patches=75 * bays * len(c.facades), operator_patches=None, spectral_samples=6,
+            gather_rays=128)
+    d = Path(tempfile.mkdtemp(prefix=f"courtyard{bays}_"))
+    return mc.write_study(c, d / "study.toml", d / "courtyard", "benchmark")
+
+
 def _profiled(fn, enabled):
     if not enabled:
         return fn()
@@ -56,7 +86,7 @@ def _profiled(fn, enabled):
 
 
 def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
-        again: bool = True):
+        again: bool = True, method: str = "auto"):
     study = lumijax.load_study(study_path)
     t = time.perf_counter()
     results = lumijax.compute(study)
@@ -64,7 +94,7 @@ def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
     start = {n: g.stats for n, g in results.grids.items()}
     cons = constraints_for(results, start)
     variables = ["dimmers", "aims"] if aims else ["dimmers"]
-    kw = dict(objective="power", constraints=cons, variables=variables)
+    kw = dict(objective="power", constraints=cons, variables=variables, method=method)
     if aims:
         kw.update(tilt_range_deg=(-5.0, 5.0), pan_range_deg=(-5.0, 5.0))
     t = time.perf_counter()
@@ -77,7 +107,10 @@ def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
         t_again = time.perf_counter() - t
     rec = opt.constrained
     worst = max([max(0.0, -r["margin"]) for r in rec["constraints"]], default=0.0)
-    return dict(variables="+".join(variables), n_constraints=len(cons),
+    # free variables: a dimmer per network, a tilt and a pan per re-aimed luminaire
+    n_var = len(study.scene.networks) + 2 * len(opt.aimed)
+    return dict(variables="+".join(variables), n_constraints=len(cons), method=rec["method"],
+                n_var=n_var,
                 steps=rec["iterations"], evaluations=rec["evaluations"],
                 compute_s=t_compute, design_s=t_design, again_s=t_again, violation=worst,
                 verdict=rec["verdict"], before=rec["objective_start"],
@@ -92,7 +125,13 @@ def main():
     ap.add_argument("--only-aims", action="store_true", help="with --aims: skip dimmers only")
     ap.add_argument("--once", action="store_true", help="do not time the design a second time")
     ap.add_argument("--study", type=Path, default=default_study_path())
+    ap.add_argument("--method", default="auto",
+                    choices=["auto", "slsqp", "trust-constr", "augmented_lagrangian"])
+    ap.add_argument("--courtyard", type=int, default=None, metavar="BAYS",
+                    help="a four-facade courtyard of BAYS bays a facade (40: the full one)")
     args = ap.parse_args()
+    if args.courtyard is not None:
+        args.study = courtyard_study(args.courtyard)
     if args.quick:  # the optimiser tests' small facade (4 spots, 2 networks), for a smoke run
         import sys
         import tempfile
@@ -107,13 +146,14 @@ def main():
         args.study = d / "facade.toml"
         args.study.write_text(facade_text(optimise=None), encoding="utf-8")
     print(f"# constrained design: {args.study} ({platform.processor() or platform.machine()})")
-    print("| variables | constraints | steps | evaluations | compute (s) | design, first (s) | "
-          "design, again (s) | worst violation | verdict | power (W) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| variables | free | constraints | method | steps | evaluations | compute (s) | "
+          "design, first (s) | design, again (s) | worst violation | verdict | power (W) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for aims in ([True] if args.only_aims else [False, True] if args.aims else [False]):
         r = run(args.study, aims=aims, quick=args.quick, profile=args.profile,
-                again=not args.once)
-        print(f"| {r['variables']} | {r['n_constraints']} | {r['steps']} | {r['evaluations']} "
+                again=not args.once, method=args.method)
+        print(f"| {r['variables']} | {r['n_var']} | {r['n_constraints']} | {r['method']} "
+              f"| {r['steps']} | {r['evaluations']} "
               f"| {r['compute_s']:.1f} | {r['design_s']:.2f} | {r['again_s']:.2f} | "
               f"{r['violation']:.2e} | "
               f"{r['verdict']} | {r['before']:.1f} → {r['after']:.1f} |")
