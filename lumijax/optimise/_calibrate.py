@@ -148,7 +148,7 @@ def calibrate(study, results, measurements, *, fit=("llf", "reflectance"),
     from scipy.optimize import least_squares
 
     from ..radiosity import solve_radiosity
-    from ._models import operator_dtype
+    from ._models import coupled_b0, diffuse_coupling, operator_dtype, transmission_as
 
     unknown = [f for f in fit if f not in ("llf", "reflectance")]
     if unknown or not fit:
@@ -186,9 +186,11 @@ def calibrate(study, results, measurements, *, fit=("llf", "reflectance"),
         gq = jnp.asarray(np.asarray(g.patch)[sel])
         gw = jnp.asarray(np.asarray(g.weight, np.float64)[sel])
         dt = operator_dtype(lighting.transport)
+        coupling = diffuse_coupling(lighting)  # diffusers: the forward solve's τ coupling
         indirect_fixed = None
     else:
         used, rho0 = np.zeros(0, int), np.zeros(0)
+        coupling = None
         indirect_fixed = jnp.asarray(np.asarray(lighting.point_indirect, np.float64)[:, idx])
     n_llf = k if "llf" in fit else 0
     n_rho = len(used) if fit_rho else 0
@@ -204,7 +206,8 @@ def calibrate(study, results, measurements, *, fit=("llf", "reflectance"),
             rho_m = theta[n_llf:n_llf + n_rho] if n_rho else jnp.asarray(rho0)
             rho = rho_m[where] * ratio
             b = solve_radiosity(transport, rho.astype(dt),
-                                (rho[:, None] * e_patch).astype(dt)).value.astype(jnp.float64)
+                                coupled_b0(rho, e_patch, coupling).astype(dt),
+                                transmission=transmission_as(coupling, dt)).value.astype(jnp.float64)
             ind = jax.vmap(lambda col: jax.ops.segment_sum(col[gq] * gw, gp,
                                                            num_segments=len(idx)),
                            in_axes=1)(b)[:, slot]

@@ -44,7 +44,7 @@ from ..direct import PairSet, build_pairs
 from ..scene._frames import aim_rotation
 
 __all__ = ["DimmerLight", "AimLight", "build_aim_light", "operator_dtype", "DENSE_PATCHES",
-           "dense_reflection"]
+           "dense_reflection", "diffuse_coupling", "coupled_b0", "transmission_as"]
 
 
 class DimmerLight(eqx.Module):
@@ -92,6 +92,15 @@ class AimLight(eqx.Module):
     aims: bool = eqx.field(static=True)
     levels: bool = eqx.field(static=True)
     rtol: float | None = eqx.field(static=True)
+    #: Diffusers (``kind = "diffuse"``): each patch's luminous τ and its other face
+    #: (:func:`diffuse_coupling`), coupled as the forward solve couples them; None: none.
+    tau: Float[Array, " patches"] | None = None
+    partner: Int[Array, " patches"] | None = None
+
+    @property
+    def transmission(self) -> tuple | None:
+        """``(tau, partner)`` for ``solve_radiosity``, or None without a diffuser."""
+        return None if self.tau is None else (self.tau, self.partner)
 
     @property
     def n_var(self) -> int:
@@ -134,7 +143,7 @@ class AimLight(eqx.Module):
             b = alpha @ self.base_radiosity
         if self.transport is not None:
             d_patch = flat[n:] - alpha @ self.start_patch
-            db = self.reflect(self.rho * d_patch).astype(e.dtype)
+            db = self.reflect(coupled_b0(self.rho, d_patch, self.transmission)).astype(e.dtype)
             e = e + jax.ops.segment_sum(db[self.gather_patch] * self.gather_weight,
                                         self.gather_point, num_segments=n)
             b = b + db
@@ -190,7 +199,10 @@ class AimLight(eqx.Module):
             if self.transport is not None:
                 w_db = w_b + rows_by(w_e[:, self.gather_point] * self.gather_weight,
                                      self.gather_patch, self.rho.shape[0])
-                w_d = self.rho * self.reflect_t(w_db)
+                r = self.reflect_t(w_db)
+                w_d = self.rho * r
+                if self.tau is not None:  # the pull-back of B₀'s τ ΔE[partner]
+                    w_d = w_d.at[:, self.partner].add(self.tau * r)
                 w_alpha = w_alpha - w_d @ self.start_patch.T
                 w_flat = jnp.concatenate([w_e, w_d], axis=1)
             w_weight = jnp.zeros((w_e.shape[0], v), e.dtype)
@@ -212,7 +224,8 @@ class AimLight(eqx.Module):
         return e, b, alpha, pull
 
     def reflect(self, b0: Float[Array, " patches"]) -> Float[Array, " patches"]:
-        """``(I − ρF)⁻¹ B₀`` (lm/m²) with the solve's row correction: by the LU factors when
+        """``(I − ρF − τPF)⁻¹ B₀`` (lm/m²; the τ term with diffusers only, ``_transmission.py``)
+        with the solve's row correction: by the LU factors when
         the model holds them (a triangular pair forward, the same transposed for the adjoint:
         a Jacobian of m constraints costs m of those, not m Krylov solves under ``vmap``),
         else by the study's Krylov solve."""
@@ -222,7 +235,8 @@ class AimLight(eqx.Module):
 
         dt = operator_dtype(self.transport)
         return solve_radiosity(self.transport, self.rho.astype(dt), b0.astype(dt)[:, None],
-                               rtol=self.rtol).value[:, 0]
+                               rtol=self.rtol, transmission=transmission_as(self.transmission, dt)
+                               ).value[:, 0]
 
     def reflect_t(self, w: Float[Array, "m patches"]) -> Float[Array, "m patches"]:
         """Rows ``w`` times ``(I − ρF)⁻¹`` (the transposed solve of :meth:`reflect`), m rows at
@@ -241,19 +255,61 @@ benchmarks/RESULTS.md): the constraints' Jacobian by ``vmap`` over Krylov solves
 step, by the LU 0.X s."""
 
 
-def dense_reflection(transport, rho) -> tuple[Array, Array]:
+def dense_reflection(transport, rho, transmission: tuple | None = None) -> tuple[Array, Array]:
     """LU factors of ``I − diag(ρ) F diag(c)``: the system ``solve_radiosity`` solves (its row
-    correction ``c``, ``radiosity.row_correction``, folded in: ``B − ρF(cB) = B₀``)."""
+    correction ``c``, ``radiosity.row_correction``, folded in: ``B − ρF(cB) = B₀``); with
+    ``transmission = (tau, partner)`` (:func:`diffuse_coupling`) that of the coupled solve,
+    ``I − (diag(ρ) F + diag(τ) P F) diag(c)``, P the permutation front ↔ back."""
     import scipy.linalg
 
     from ..radiosity import row_correction
 
     c, _ = row_correction(transport.row_sums())
     f = transport.todense()
-    k = -(np.asarray(rho, np.float64)[:, None] * f) * np.asarray(c, np.float64)[None, :]
+    k = np.asarray(rho, np.float64)[:, None] * f
+    if transmission is not None:
+        tau, partner = transmission
+        k += np.asarray(tau, np.float64)[:, None] * f[np.asarray(partner)]
+    k = -k * np.asarray(c, np.float64)[None, :]
     k[np.diag_indices_from(k)] += 1.0
     lu, piv = scipy.linalg.lu_factor(k, overwrite_a=True, check_finite=False)
     return jnp.asarray(lu), jnp.asarray(piv)
+
+
+def diffuse_coupling(lighting) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(tau, partner)``: each coarse patch's luminous diffuse transmittance (``kind =
+    "diffuse"``; 0 elsewhere) and the patch of its other face (``radiosity.back_partners``),
+    the coupling the forward solve gives its operator and B₀ = ρE + τE[partner]
+    (``lighting._spectral``), in the luminous channel the optimiser's solves run in (their ρ is
+    ``coarse.rho``); None when no patch transmits diffusely."""
+    patches = lighting.coarse.patches
+    if patches is None:
+        return None
+    mats = lighting.scene.materials
+    tau = np.array([m.tau if m.diffuse_transmitting else 0.0 for m in mats])[
+        np.asarray(patches.material)]
+    if not np.any(tau > 0):
+        return None
+    from ..radiosity import back_partners
+
+    return tau, back_partners(patches, tau > 0)
+
+
+def coupled_b0(rho, e, transmission):
+    """``ρ E + τ E[partner]`` (lm/m²) for patch irradiances ``e`` (lx; patches first), the
+    forward solve's B₀; ``ρ E`` without a diffuser (``transmission`` None)."""
+    r = rho.reshape(rho.shape + (1,) * (e.ndim - rho.ndim))
+    if transmission is None:
+        return r * e
+    tau, partner = transmission
+    t = jnp.asarray(tau).reshape(r.shape)
+    return r * e + t * e[jnp.asarray(partner)]
+
+
+def transmission_as(transmission, dt):
+    """``(tau, partner)`` with τ in the solve's precision ``dt`` (None stays None)."""
+    return None if transmission is None else (jnp.asarray(transmission[0]).astype(dt),
+                                              transmission[1])
 
 
 PAIR_THRESHOLD = 1e-4
@@ -345,7 +401,10 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
             rho=f(np.asarray(lighting.coarse.rho, dtype)), gather_point=f(g.point),
             gather_patch=f(g.patch), gather_weight=f(np.asarray(g.weight, dtype)),
         )
+        coupling = diffuse_coupling(lighting)
+        if coupling is not None:
+            fields.update(tau=f(coupling[0].astype(dtype)), partner=f(coupling[1], jnp.int32))
         if dense and lighting.transport.n_patches <= DENSE_PATCHES:
-            fields["lu"] = dense_reflection(lighting.transport, lighting.coarse.rho)
+            fields["lu"] = dense_reflection(lighting.transport, lighting.coarse.rho, coupling)
     return eqx.tree_at(lambda m: [getattr(m, n) for n in fields], model, list(fields.values()),
                        is_leaf=lambda x: x is None)

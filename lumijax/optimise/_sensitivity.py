@@ -106,10 +106,11 @@ def _metric(results, metric: str):
 def reflectance_light(lighting, dimmers):
     """``(materials, f)``: the materials on the patches and ``f(s) -> E`` (lx at the grid
     points), the light with each material's luminous reflectance scaled by ``s_m`` (1: as
-    computed): direct light plus ``G (I − ρ(s)F)⁻¹ ρ(s) E_patch``. None where the study has no
+    computed): direct light plus ``G (I − ρ(s)F)⁻¹ ρ(s) E_patch`` (with diffusers, the coupled
+    solve of ``ρ(s) E + τ E[partner]``, as the forward one). None where the study has no
     single level of patches (no inter-reflection, or a two-level solve)."""
     from ..radiosity import solve_radiosity
-    from ._models import operator_dtype
+    from ._models import coupled_b0, diffuse_coupling, operator_dtype, transmission_as
 
     coarse = lighting.coarse
     if (coarse.patches is None or lighting.transport is None or lighting.fine is not None
@@ -127,11 +128,13 @@ def reflectance_light(lighting, dimmers):
     n = len(direct)
     point, patch, weight = (jnp.asarray(g.point), jnp.asarray(g.patch),
                             jnp.asarray(np.asarray(g.weight, np.float64)))
+    coupling = diffuse_coupling(lighting)  # diffusers: the forward solve's τ coupling
 
     def f(s):
         rho = jnp.asarray(rho0) * s[jnp.asarray(index)]
-        b = solve_radiosity(lighting.transport, rho.astype(dt),
-                            (rho * jnp.asarray(e_patch)).astype(dt)[:, None]).value[:, 0]
+        b0 = coupled_b0(rho, jnp.asarray(e_patch), coupling)
+        b = solve_radiosity(lighting.transport, rho.astype(dt), b0.astype(dt)[:, None],
+                            transmission=transmission_as(coupling, dt)).value[:, 0]
         b = b.astype(jnp.float64)
         return jnp.asarray(direct) + jax.ops.segment_sum(b[patch] * weight, point,
                                                          num_segments=n)
@@ -207,7 +210,7 @@ def _full_light(model, lighting, crit):
     right-hand side (the change is zero at the start, where sensitivities are taken), so the
     aim model's own form would lose the inter-reflected part of every derivative there."""
     from ..radiosity import solve_radiosity
-    from ._models import operator_dtype
+    from ._models import coupled_b0, operator_dtype, transmission_as
 
     n = model.n_points
     fixed_direct = jnp.asarray(np.asarray(lighting.point_direct, np.float64)
@@ -228,9 +231,10 @@ def _full_light(model, lighting, crit):
         alpha, tilt, pan, level = model.split(x)
         flat = model.direct(tilt, pan, alpha[model.network] * level)
         patch = alpha @ fixed_patch + flat[n:]
-        b = solve_radiosity(model.transport, model.rho.astype(dt),
-                            (model.rho * patch).astype(dt)[:, None],
-                            rtol=model.rtol).value[:, 0].astype(jnp.float64)
+        b0 = coupled_b0(model.rho, patch, model.transmission)
+        b = solve_radiosity(model.transport, model.rho.astype(dt), b0.astype(dt)[:, None],
+                            rtol=model.rtol, transmission=transmission_as(model.transmission, dt)
+                            ).value[:, 0].astype(jnp.float64)
         e = alpha @ fixed_direct + flat[:n] + jax.ops.segment_sum(
             b[model.gather_patch] * model.gather_weight, model.gather_point, num_segments=n)
         return crit(e, alpha)

@@ -151,6 +151,68 @@ def test_the_fine_faces_of_a_panel_pass_on_the_other_face_by_hand(rooms):
     assert np.all(level.radiosity[0, ~back] == 0.0)  # ρ = 0: nothing else leaves a surface
 
 
+@pytest.mark.slow  # one compiled Krylov solve (and its tangent) of ~900 patches
+def test_the_reflectance_sensitivity_through_a_panel_against_a_finite_difference(rooms):
+    """∂E/∂ρ_m at the point in room B (lit only through the panel) from the optimise layer's
+    solve, against central differences of the forward solve (``lighting._solution.shoot``,
+    what ``compute`` runs) with each material's reflectance scaled."""
+    import dataclasses
+
+    import jax
+    from helpers import central_difference
+
+    from lumijax.lighting._solution import shoot
+    from lumijax.optimise._sensitivity import reflectance_light
+
+    study, res = rooms
+    sol = res.lighting
+    used, f = reflectance_light(sol, [1.0])
+    index = np.searchsorted(used, sol.coarse.patches.material)
+    assert [study.scene.materials[int(m)].name for m in used] == ["wall", "opal"]
+
+    def forward(s):
+        sp = dataclasses.replace(sol.spectral, rho=sol.spectral.rho * np.asarray(s)[index, None])
+        shot = shoot(dataclasses.replace(sol, spectral=sp), sol.coarse.patch_direct, [None],
+                     sol.point_direct)
+        return (sol.point_direct + shot.point_indirect)[0]
+
+    ones = np.ones(len(used))
+    # value and derivatives from one forward-mode pass (one compiled solve, not two)
+    def twice(s):
+        e = f(s)
+        return e, e
+
+    jac, value = jax.jacfwd(twice, has_aux=True)(jnp.asarray(ones))
+    np.testing.assert_allclose(value, forward(ones), rtol=1e-7)
+    np.testing.assert_allclose(forward(ones), sol.point_total[0], rtol=1e-7)
+    got = np.asarray(jac).T  # (materials, points)
+    want = central_difference(forward, ones, h=1e-3)
+    assert np.all(want > 0)  # brighter walls or a brighter panel: more light behind it
+    np.testing.assert_allclose(got, want, rtol=1e-5)
+
+
+@pytest.mark.slow  # one compiled Krylov solve (and its tangent) of ~900 patches
+def test_calibration_and_the_aim_model_solve_through_the_panel(rooms, tmp_path):
+    """The calibration's model at the computed design reproduces the computed lux behind the
+    panel (its residual 0), and the aim model's light at a luminaire level of 1.1 is 1.1 × the
+    computed light, inter-reflection through the panel included (one lamp: exactly linear)."""
+    from lumijax.optimise import calibrate
+    from lumijax.optimise._models import build_aim_light
+
+    study, res = rooms
+    sol = res.lighting
+    (x, y, z), lux = sol.points[0], float(sol.point_total[0, 0])
+    csv = tmp_path / "m.csv"
+    csv.write_text(f"x,y,z,nx,ny,nz,lux\n{x},{y},{z},0,0,1,{lux!r}\n", encoding="utf-8")
+    cal = calibrate(study, res, csv, fit=("llf",))
+    assert abs(cal.residuals_before[0]) < 1e-7
+    assert cal.llf["n"] == pytest.approx(1.0, abs=1e-6)
+    model = build_aim_light(sol, [0], [0.0], [0.0], aims=False, levels=True)
+    assert model.lu is not None and model.tau is not None  # the dense LU of the coupled solve
+    e, _, _ = model(jnp.asarray([1.0, 1.1]))
+    np.testing.assert_allclose(np.asarray(e), 1.1 * sol.point_total[0], rtol=1e-7)
+
+
 def test_transmission_on_a_closed_solid_with_nothing_inside_is_refused(tmp_path):
     (tmp_path / "s.toml").write_text(study_text(
         material("opal", 0.3, transmittance=0.5, kind="diffuse"),
