@@ -46,7 +46,7 @@ from ._constrained import _ACTIVE, _COARSE, ConstrainedRun, DesignProblem
 
 __all__ = ["CONSTRAINED_METHODS", "AUTO_SLSQP_VARIABLES", "AbstractConstrainedMethod",
            "AugmentedLagrangian", "SLSQP", "TrustConstr", "AutoConstrained",
-           "solve_augmented", "resolve_method"]
+           "solve_augmented", "resolve_method", "tighten_for_model_error"]
 
 AUTO_SLSQP_VARIABLES = 1000
 """``method = "auto"``: SLSQP up to this many free variables, the augmented Lagrangian above.
@@ -242,3 +242,24 @@ def solve_augmented(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-3,
         success=converged and violation <= tolerance, message=message,
         history=history + [obj], multipliers=lam, prices=prices, active=active,
         seconds=time.perf_counter() - t0)
+
+
+# --- a shortfall after the exact recompute ------------------------------------------------
+
+def tighten_for_model_error(problem: DesignProblem, achieved, modelled,
+                            tolerance: float) -> tuple[DesignProblem, list[int]]:
+    """The problem with each constraint the exact recompute found short (relative margin below
+    ``−tolerance``) moved by the light model's error there: ``bound' = bound − (achieved −
+    model)`` (natural units, either sense), so that the model meeting ``bound'`` is the exact
+    criterion meeting ``bound`` to first order in the error. ``achieved`` are the exact
+    values at the design, ``modelled`` the model's (``exact_values``). Returns the problem and
+    the indices moved (none: the problem itself)."""
+    moved, cons = [], list(problem.constraints)
+    for j, (c, v, vm) in enumerate(zip(cons, achieved, modelled, strict=True)):
+        margin = c.sense * (float(v) - float(c.bound)) / c.scale
+        if margin < -tolerance:
+            cons[j] = c.with_bound(float(c.bound) - (float(v) - float(vm)))
+            moved.append(j)
+    if not moved:
+        return problem, []
+    return eqx.tree_at(lambda p: p.constraints, problem, tuple(cons)), moved
