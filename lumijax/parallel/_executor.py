@@ -136,7 +136,10 @@ class DaskExecutor(Executor):
 
     A worker that dies mid-task has its task re-run on another by the scheduler (up to
     ``distributed.scheduler.allowed-failures`` times, 3 by default); a task that exhausts
-    them, or a cluster that goes away, raises :class:`ClusterError`. Errors a task raises
+    them, or a cluster that goes away, raises :class:`ClusterError`. A task the cluster
+    cancels instead (``FutureCancelledError``, seen under load after a worker was killed) is
+    sent again with its shared inputs scattered afresh, up to ``max_resubmits`` times per
+    ``map``, then raises :class:`ClusterError`. Errors a task raises
     itself (a ``LumijaxError`` about the input) pass through unchanged.
 
     Parameters
@@ -159,6 +162,8 @@ class DaskExecutor(Executor):
         self.submitted: collections.Counter[str] = collections.Counter()
         self._shared: dict[int, tuple[Any, Any]] = {}  # id → (object kept alive, its future)
         self._x64: bool | None = None  # the precision the workers were last set to
+        #: tasks one ``map`` may send again after the cluster cancelled them
+        self.max_resubmits = 3
 
     @property
     def address(self) -> str:
@@ -192,6 +197,11 @@ class DaskExecutor(Executor):
 
         items = list(items)
         x64 = bool(jax.config.jax_enable_x64)
+
+        def submit(batch: list) -> list:
+            kw = {k: self._share(v) for k, v in (shared or {}).items()}
+            return self.client.map(_on_worker, batch, fn=fn, x64=x64, pure=False, **kw)
+
         try:
             if x64 != self._x64:
                 # shared JAX arrays (photometry tables) are rebuilt when they reach a worker,
@@ -199,24 +209,40 @@ class DaskExecutor(Executor):
                 self.client.register_plugin(_precision_plugin(x64), name="lumijax-precision")
                 self._shared.clear()
                 self._x64 = x64
-            kw = {k: self._share(v) for k, v in (shared or {}).items()}
-            futures = self.client.map(_on_worker, items, fn=fn, x64=x64, pure=False, **kw)
+            futures = submit(items)
         except (OSError, TimeoutError) as e:
             raise self._lost(e) from None
         self.submitted[fn.__name__] += len(futures)
-        return self._results(futures)
+        return self._results(futures, items, submit)
 
-    def _results(self, futures) -> Iterator[Any]:
+    def _results(self, futures, items, submit) -> Iterator[Any]:
+        from concurrent.futures import CancelledError
+
         from distributed import KilledWorker
 
+        resubmitted = 0
         try:
-            for k, f in enumerate(futures):
-                try:
-                    out = f.result()
-                except (KilledWorker, OSError, TimeoutError) as e:
-                    raise self._lost(e) from None
+            for k in range(len(futures)):
+                while True:
+                    try:
+                        out = futures[k].result()
+                        break
+                    except CancelledError as e:
+                        # seen under load after a worker was killed: the scheduler forgot the
+                        # task (or the scattered input it needs) instead of re-running it, so
+                        # it is sent again with its inputs shared afresh
+                        if resubmitted >= self.max_resubmits:
+                            raise self._lost(e) from None
+                        resubmitted += 1
+                        self._shared.clear()
+                        try:
+                            futures[k] = submit([items[k]])[0]
+                        except (OSError, TimeoutError) as e2:
+                            raise self._lost(e2) from None
+                    except (KilledWorker, OSError, TimeoutError) as e:
+                        raise self._lost(e) from None
+                futures[k].release()
                 futures[k] = None  # the worker may forget a result once it is here
-                f.release()
                 yield out
         finally:
             for f in futures:
