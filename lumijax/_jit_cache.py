@@ -25,7 +25,8 @@ import threading
 import warnings
 from pathlib import Path
 
-__all__ = ["ENV", "MIN_COMPILE_S", "cache_dir", "enable_compilation_cache", "VerifiedFileCache"]
+__all__ = ["ENV", "MIN_COMPILE_S", "cache_dir", "enable_compilation_cache", "to_device",
+           "VerifiedFileCache"]
 
 ENV = "LUMIJAX_JAX_CACHE"
 """Environment variable: a folder for the cache, or ``0``/``off``/``false``/``no``/empty."""
@@ -192,3 +193,24 @@ def enable_compilation_cache() -> Path | None:
             jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_S)
         _enabled = path
         return path
+
+
+def to_device(x, dtype=None):
+    """``jnp.asarray(x, dtype)`` without compiling a kernel when ``x`` is a numpy array.
+
+    JAX 0.10's ``jnp.asarray`` of a numpy array binds ``lax.stage`` (and ``convert_element_type``
+    when ``dtype`` differs), and each binds an eager kernel compiled once per shape and process:
+    ~20-60 ms each (a persistent-cache hit still lowers and loads it), 30-40 of them in a small
+    study's run. Here the cast is numpy's on the host (round to nearest, as XLA's) and the
+    transfer ``jax.device_put``'s, which compiles nothing: the same values, dtype (JAX's
+    canonical one: float64 is float32 unless x64 is on) and placement. Anything else (JAX arrays,
+    tracers, Python scalars with their weak types) goes to ``jnp.asarray`` unchanged.
+    """
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    if not isinstance(x, (np.ndarray, np.generic)) or isinstance(x, np.ma.MaskedArray):
+        return jnp.asarray(x) if dtype is None else jnp.asarray(x, dtype)
+    want = jax.dtypes.canonicalize_dtype(x.dtype if dtype is None else np.dtype(dtype))
+    return jax.device_put(np.asarray(x, want))

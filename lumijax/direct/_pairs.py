@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .._jit_cache import to_device
 from ..kernels import pair_light
 
 __all__ = ["PairSet", "PairChunk", "build_pairs", "pair_chunks", "sub_source_offsets",
@@ -105,6 +106,11 @@ def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np
     return np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
 
 
+@eqx.filter_jit
+def _direction(distribution, h_deg, v_deg):
+    return distribution.direction(h_deg, v_deg)
+
+
 def support_cosine(distribution, threshold: float = 0.0) -> float:
     """Cosine of the widest angle from the photometric axis at which ``distribution`` can exceed
     ``threshold`` × its peak (default: be non-zero at all): the bilinear interpolant reaches the
@@ -121,7 +127,8 @@ def support_cosine(distribution, threshold: float = 0.0) -> float:
     grown[:, :-1] |= nz[:, 1:]
     hh, vv = np.meshgrid(np.asarray(distribution.h_deg), np.asarray(distribution.v_deg),
                          indexing="ij")
-    dirs = np.asarray(distribution.direction(hh[grown], vv[grown]))
+    # one compiled program (eager, its trig and stacking compiled eight in every process)
+    dirs = np.asarray(_direction(distribution, hh[grown], vv[grown]))
     widest = np.arccos(np.clip(np.min(-dirs[:, 2]), -1.0, 1.0)) + np.radians(2.0)
     return float(np.cos(widest)) if widest < np.pi else -1.0
 
@@ -310,7 +317,7 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     if not len(points) or not sel:
         return
     rot_all = np.array([scene.luminaires[i].rotation for i in sel]).reshape(-1, 3, 3)
-    rot_j = jnp.asarray(rot_all)
+    rot_j = to_device(rot_all)  # numpy → device without an eager kernel (_jit_cache.to_device)
     widen = np.zeros(len(sel)) if widen is None else np.asarray(widen, np.float64)
     tiles = Tiles.build(points)
     for batch in _point_sources(scene, sel):
@@ -355,8 +362,8 @@ def _chunk(batch, dist, s_idx, r_idx, points, normals, rot_j, caster, all_rays, 
     pad = _bucket(n) - n
     w_p = np.zeros((n + pad, 3))
     w_p[:n], w_p[n:, 2] = w, -1.0  # padding: straight down, gain 0
-    e = np.array(_light_block(dist, rot_j, jnp.asarray(np.pad(lum, (0, pad)).astype(np.int32)),
-                              jnp.asarray(w_p), jnp.asarray(np.pad(gain, (0, pad)))),
+    e = np.array(_light_block(dist, rot_j, to_device(np.pad(lum, (0, pad)).astype(np.int32)),
+                              to_device(w_p), to_device(np.pad(gain, (0, pad)))),
                  dtype=np.float64)[:n]
     t1 = time.perf_counter()
     timing["kernel"] += t1 - t0

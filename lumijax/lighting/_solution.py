@@ -29,11 +29,13 @@ import time
 from dataclasses import dataclass, field
 from typing import NamedTuple, TypeVar
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
+from .._jit_cache import to_device
 from ..direct import direct_illuminance
 from ..radiosity import Patches, RadiositySolution, TransportOperator
 from ..radiosity._gather import GatherOperator
@@ -44,6 +46,16 @@ from ._spectral import SpectralSetup, solve_spectral
 __all__ = ["LightingSolution", "Level", "float64_scope"]
 
 _T = TypeVar("_T")
+
+
+@eqx.filter_jit
+def _corrected_matmul(transport, b):
+    """``F' b`` with the solve's row correction (:meth:`LightingSolution.patch_illuminance`):
+    one compiled program where its eager ops compiled a dozen in every process."""
+    from ..radiosity import row_correction
+
+    c, _ = row_correction(transport.row_sums())
+    return transport.matmul(b * c.astype(b.dtype)[:, None])
 
 
 @contextlib.contextmanager
@@ -170,12 +182,9 @@ class LightingSolution:
         d = np.asarray(dimmers, np.float64)
         if self.fine is not None or self.transport is None:
             return d @ self.display_patch_illuminance()
-        from ..radiosity import row_correction
-
         with float64_scope(_float64(self)):
-            b = jnp.asarray((d @ self.coarse.radiosity)[:, None], _dtype(self))
-            c, _ = row_correction(self.transport.row_sums())
-            fb = np.asarray(self.transport.matmul(b * c.astype(b.dtype)[:, None]))[:, 0]
+            b = to_device((d @ self.coarse.radiosity)[:, None], _dtype(self))
+            fb = np.asarray(_corrected_matmul(self.transport, b))[:, 0]
         return d @ self.coarse.patch_direct + fb
 
     def display_radiosity_at(self, dimmers) -> Float[np.ndarray, " patches"]:
@@ -197,12 +206,9 @@ class LightingSolution:
         B = ρE holds patch by patch."""
         if self.transport is None:
             return self.coarse.patch_direct
-        from ..radiosity import row_correction
-
         with float64_scope(_float64(self)):
-            b = jnp.asarray(self.coarse.radiosity.T, _dtype(self))
-            c, _ = row_correction(self.transport.row_sums())
-            fb = np.asarray(self.transport.matmul(b * c.astype(b.dtype)[:, None])).T
+            b = to_device(self.coarse.radiosity.T, _dtype(self))
+            fb = np.asarray(_corrected_matmul(self.transport, b)).T
         return self.coarse.patch_direct + fb
 
     def replace_luminaire(self, index: int, luminaire) -> LightingSolution:
@@ -357,7 +363,7 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
                             max_steps=sol.solve_max_steps)
     t1 = time.perf_counter()
     b_xyz = np.einsum("scw,psw->scp", h, b)  # (src, 3, P)
-    e_ind = np.asarray(gather(jnp.asarray(b, dtype)), np.float64)  # (N, src, W)
+    e_ind = np.asarray(gather(to_device(b, dtype)), np.float64)  # (N, src, W)
     ind_xyz = np.einsum("scw,nsw->scn", h, e_ind)  # (src, 3, N)
     colour = np.einsum("scw,sw->sc", h, s)  # XYZ of each source's light, Y = 1
     point_xyz = ind_xyz + colour[:, :, None] * np.asarray(point_direct)[:, None, :]

@@ -147,33 +147,37 @@ def solve_spectral(transport, rho, patch_direct, s, dtype, transmission=None, **
     ``ρ E s`` column by column (linearity), and the :class:`RadiositySolution` of the distinct
     columns (its ``escaped`` per (src, W); 0 where ``s`` is 0, as a column without light has).
     """
-    import jax.numpy as jnp
+    import jax
 
+    from .._jit_cache import to_device
     from ..radiosity import solve_radiosity
 
+    # B₀ in numpy in the solve's precision (IEEE products, the same bits as JAX's): every eager
+    # jnp op here would compile a kernel in each new process (docs/radiosity.md, "Caches")
+    want = jax.dtypes.canonicalize_dtype(np.dtype(dtype))
     s = np.asarray(s, np.float64)
-    rho_j = jnp.asarray(rho, dtype)  # (P, W)
-    e = jnp.asarray(np.asarray(patch_direct, np.float64).T[:, :, None], dtype)  # (P, src, 1)
-    b0 = rho_j[:, None, :] * e
+    rho_h = np.asarray(rho, want)  # (P, W)
+    e = np.asarray(np.asarray(patch_direct, np.float64).T[:, :, None], want)  # (P, src, 1)
+    b0 = rho_h[:, None, :] * e
     if transmission is not None:
-        tau_j = jnp.asarray(transmission[0], dtype)[:, None, :]
+        tau_h = np.asarray(transmission[0], want)[:, None, :]
         partner = np.asarray(transmission[1])
-        b0 = b0 + tau_j * e[partner]
-        solve = dict(solve, transmission=(tau_j, partner))
-    res = solve_radiosity(transport, rho_j[:, None, :], b0, **solve)
+        b0 = b0 + tau_h * e[partner]
+        solve = dict(solve, transmission=(to_device(tau_h), partner))
+    res = solve_radiosity(transport, to_device(rho_h[:, None, :]), to_device(b0), **solve)
     b = np.asarray(res.value, np.float64) * s[None]
-    lit = jnp.asarray(s != 0)
-    res = _masked(res, lit)
+    res = _masked(res, s != 0)
     return b, res
 
 
 def _masked(res, lit):
-    """The solution's per-column flux fractions set to 0 where a column has no light."""
-    import jax.numpy as jnp
-
+    """The solution's per-column flux fractions set to 0 where a column has no light (host
+    values: ``res`` is a concrete solve's)."""
+    from .._jit_cache import to_device
     from ..radiosity import RadiositySolution
 
-    escaped = jnp.where(lit, res.escaped, 0.0).astype(res.escaped.dtype)
-    created = jnp.where(lit, res.stats["created"], 0.0).astype(res.escaped.dtype)
+    dt = res.escaped.dtype
+    escaped = to_device(np.where(lit, np.asarray(res.escaped), 0.0).astype(dt))
+    created = to_device(np.where(lit, np.asarray(res.stats["created"]), 0.0).astype(dt))
     return RadiositySolution(res.value, res.iterations, res.residual, res.result, escaped,
                              dict(res.stats, created=created))

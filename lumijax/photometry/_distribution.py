@@ -16,6 +16,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._jit_cache import to_device
+
 __all__ = ["CandelaDistribution"]
 
 _TYPES = ("C", "B", "A")
@@ -298,11 +300,12 @@ class CandelaDistribution(eqx.Module):
             cn = _tie_poles_impl(photometric_type, hn, vn, cn, np)
             dtype = jax.dtypes.canonicalize_dtype(np.float64)  # float32 unless x64 is enabled
             self.photometric_type = photometric_type
-            self.h_deg = jnp.asarray(hn, dtype=dtype)
-            self.v_deg = jnp.asarray(vn, dtype=dtype)
-            self.candela = jnp.asarray(cn, dtype=dtype)
+            # to_device: numpy's cast and a transfer, no eager kernel per shape and process
+            self.h_deg = to_device(hn, dtype)
+            self.v_deg = to_device(vn, dtype)
+            self.candela = to_device(cn, dtype)
             (hl, hs), (vl, vs) = _cell_lut(hn), _cell_lut(vn)
-            self.luts = (jnp.asarray(hl), jnp.asarray(vl))
+            self.luts = (to_device(np.asarray(hl)), to_device(np.asarray(vl)))
             self.lut_steps = (hs, vs)
             return
         h = jnp.asarray(h_deg)

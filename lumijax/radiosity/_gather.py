@@ -14,12 +14,14 @@ results are reproducible.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
+
+from .._jit_cache import to_device
 
 __all__ = ["GatherOperator", "build_gather", "build_sensor_gather"]
 
@@ -41,11 +43,9 @@ class GatherOperator:
 
     def __call__(self, b: Float[Array, "patches ..."]) -> Float[Array, "points ..."]:
         """Illuminance (lx) at the points from patch radiosity ``b`` (any trailing axes)."""
-        b = jnp.asarray(b)
-        contrib = b[jnp.asarray(self.patch)] * jnp.asarray(self.weight, b.dtype).reshape(
-            (-1,) + (1,) * (b.ndim - 1)
-        )
-        return jax.ops.segment_sum(contrib, jnp.asarray(self.point), num_segments=self.n_points)
+        b = to_device(b)
+        weight = np.asarray(self.weight, b.dtype).reshape((-1,) + (1,) * (b.ndim - 1))
+        return _apply(b, self.patch, weight, self.point, self.n_points)
 
     @property
     def coverage(self) -> Float[np.ndarray, " points"]:
@@ -53,6 +53,13 @@ class GatherOperator:
         # float even with no rays (numpy's bincount of empty weights is integer)
         return np.bincount(self.point, weights=self.weight,
                            minlength=self.n_points).astype(np.float64, copy=False)
+
+
+@functools.partial(jax.jit, static_argnums=4)
+def _apply(b, patch, weight, point, n_points):
+    """``E = G @ B`` as one compiled program (its eager ops, each compiled per process, cost
+    more than the gather on a small study: docs/radiosity.md, "Caches")."""
+    return jax.ops.segment_sum(b[patch] * weight, point, num_segments=n_points)
 
 
 def _cosine_directions(n: int) -> Float[np.ndarray, "n 3"]:

@@ -30,6 +30,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import lineax as lx
+import numpy as np
 
 __all__ = ["ColumnBiCGStab", "ColumnScaled", "Refinement", "column_max"]
 
@@ -178,6 +179,15 @@ def _products(solver, stats) -> jax.Array:
     return stats["num_steps"]
 
 
+def _int32(x):
+    """``x`` as int32; a constant count (some solvers' step counts are not traced) cast on the
+    host, since an eager cast of a constant compiles a kernel even inside a trace."""
+    try:
+        return np.int32(np.asarray(x))
+    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError):
+        return jnp.asarray(x, jnp.int32)
+
+
 def _wide_mv(op, x):
     """``op.mv(x)`` for ``x`` wider than the operator's structure (lineax's composite
     operators refuse a dtype other than theirs; ours compute in the vector's precision)."""
@@ -232,7 +242,7 @@ class Refinement(_Transposable):
             def run(solver):
                 def go(r):
                     d, _, stats = solver.compute(solver.init(op, {}), r, {})
-                    return d, jnp.asarray(_products(solver, stats), jnp.int32)
+                    return d, _int32(_products(solver, stats))
                 return go
 
             d, used = jax.lax.cond(use_fallback, run(self.fallback), run(self.inner), r)

@@ -38,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._atomic import atomic_path
+from .._jit_cache import to_device
 from ..errors import OutputError
 from ._operator import Bucket, Info, LowRankBucket, SampledBucket, TransportOperator
 
@@ -421,7 +422,7 @@ def read_operator(path: str | Path, *, key: str | None = None,
         _check(_in_range(f["recv_block"], -1, n_b - 1) and _in_range(f["src_block"], -1, n_b - 1),
                f"bucket {k}: a block index outside -1..n_blocks-1", path)
         _check(all(_all_finite(v) for v in values), f"bucket {k}: NaN or infinite values", path)
-        fields = [jnp.asarray(f[name]) for name in _FIELDS[b["kind"]]]
+        fields = [to_device(f[name]) for name in _FIELDS[b["kind"]]]  # no eager kernels
         if b["kind"] == "lowrank":
             buckets.append(LowRankBucket(*fields, chunk=b["chunk"]))
         else:
@@ -429,8 +430,8 @@ def read_operator(path: str | Path, *, key: str | None = None,
     area_dtype = jnp.float64 if jax.config.jax_enable_x64 else jnp.float32
     return TransportOperator(
         tuple(buckets),
-        jnp.asarray(area, area_dtype),
-        jnp.asarray(block_of),
+        to_device(np.asarray(area), area_dtype),
+        to_device(np.asarray(block_of)),
         n_p,
         n_b,
         Info(head["info"]),
