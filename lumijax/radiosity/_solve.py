@@ -48,6 +48,8 @@ import lineax as lx
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .. import _export
+from .._jit_cache import to_device
 from ..errors import SolveError
 from ._krylov import column_max
 from ._operator import Info, ReflectionOperator, TransportOperator
@@ -224,7 +226,7 @@ def solve_radiosity(
     """
     solver = radiosity_solver(method if method is not None else solver)
     check_reflectance(transport, rho)
-    b0 = jnp.asarray(b0)
+    b0 = to_device(b0)  # host data: no eager kernel (a small study's run compiles dozens)
     if not jnp.issubdtype(b0.dtype, jnp.floating):
         b0 = b0.astype(jnp.result_type(float))
     if b0.shape[0] != transport.n_patches:
@@ -233,9 +235,9 @@ def solve_radiosity(
         )
     if rtol is None:
         rtol = 1e-9 if b0.dtype == jnp.float64 else 1e-4
-    rho = jnp.asarray(rho)
+    rho = to_device(rho)
     tau, partner = (None, None) if transmission is None else (
-        jnp.asarray(transmission[0]), jnp.asarray(transmission[1], jnp.int32))
+        to_device(transmission[0]), to_device(transmission[1], jnp.int32))
     # columns equal in ρ and B₀ but not in τ are not one column: τ joins the comparison
     columns = distinct_columns(rho, b0) if tau is None else distinct_columns(
         jnp.concatenate([_flat_columns(rho, b0), _flat_columns(tau, b0)]),
@@ -246,29 +248,32 @@ def solve_radiosity(
             tau, partner)
         stats = dict(stats, columns_solved=int(np.prod(b0.shape[1:], dtype=int)))
     else:
+        # concrete: the columns picked and spread back in numpy (the same bits; eager jnp
+        # gathers and reshapes would each compile a kernel per process)
         first, inverse = columns
         n = b0.shape[0]
-        rho_u = _flat_columns(rho, b0)[:, first]
-        tau_u = None if tau is None else _flat_columns(tau, b0)[:, first]
+        b0_h = np.asarray(b0)
+        rho_u = _flat_columns(np.asarray(rho), b0_h, np)[:, first]
+        tau_u = None if tau is None else _flat_columns(np.asarray(tau), b0_h, np)[:, first]
         b_u, iterations, residual, result, escaped_u, stats = _padded_solve(
-            transport, rho_u, b0.reshape(n, -1)[:, first], solver, float(rtol),
+            transport, rho_u, b0_h.reshape(n, -1)[:, first], solver, float(rtol),
             int(max_steps), bool(correct_rows), tau_u, partner)
-        b = b_u[:, inverse].reshape(b0.shape)
-        escaped = escaped_u[inverse].reshape(b0.shape[1:])
-        stats = dict(stats, created=stats["created"][inverse].reshape(b0.shape[1:]),
-                     columns_solved=len(first))
+        b = to_device(np.asarray(b_u)[:, inverse].reshape(b0.shape))
+        escaped = to_device(np.asarray(escaped_u)[inverse].reshape(b0.shape[1:]))
+        created = np.asarray(stats["created"])[inverse].reshape(b0.shape[1:])
+        stats = dict(stats, created=to_device(created), columns_solved=len(first))
     sol = RadiositySolution(b, iterations, residual, result, escaped, stats)
     if throw:
         sol = _raise_if_failed(sol, solver, rtol, max_steps)
     return sol
 
 
-def _flat_columns(rho, b0):
+def _flat_columns(rho, b0, xp=jnp):
     """``rho`` broadcast to ``b0``'s shape, as ``(patches, columns)`` (rho as given: ``(P,)``
-    is one value per patch for every column)."""
+    is one value per patch for every column); ``xp=np`` for host arrays."""
     n = b0.shape[0]
     r = rho.reshape((n,) + (1,) * (b0.ndim - 1)) if rho.ndim == 1 else rho
-    return jnp.broadcast_to(r.astype(b0.dtype), b0.shape).reshape(n, -1)
+    return xp.broadcast_to(r.astype(b0.dtype), b0.shape).reshape(n, -1)
 
 
 def distinct_columns(rho, b0) -> tuple[np.ndarray, np.ndarray] | None:
@@ -280,8 +285,8 @@ def distinct_columns(rho, b0) -> tuple[np.ndarray, np.ndarray] | None:
     if r is None or b is None:
         return None
     n = b.shape[0]
-    r = np.asarray(_flat_columns(jnp.asarray(r), jnp.asarray(b)))
-    b = np.asarray(b).reshape(n, -1)
+    r = _flat_columns(r, b, np)
+    b = b.reshape(n, -1)
     # hash each column (one pass, no (2P × C) sorted copy), then confirm equal bytes
     seen: dict[bytes, list[int]] = {}
     first: list[int] = []
@@ -313,7 +318,7 @@ def _pad_rows(x, n, extra, value=0):
         return None
     c = _concrete(x)
     if c is not None:  # numpy, then one transfer: eager jnp ops would each compile a kernel
-        return jnp.asarray(np.concatenate([c, np.full((extra,) + c.shape[1:], value, c.dtype)]))
+        return to_device(np.concatenate([c, np.full((extra,) + c.shape[1:], value, c.dtype)]))
     x = jnp.asarray(x)
     return jnp.concatenate([x, jnp.full((extra,) + x.shape[1:], value, x.dtype)])
 
@@ -341,12 +346,38 @@ def _padded_solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau
     b, iterations, residual, result, escaped, stats = _solve(
         padded, rows(rho), rows(b0), solver, rtol, max_steps, correct_rows, rows(tau),
         None if partner is None else _pad_rows(partner, n, extra))
-    return b[:n], iterations, residual, result, escaped, stats
+    c = _concrete(b)  # outside a trace, the slice on the host (no eager kernel)
+    return (b[:n] if c is None else to_device(c[:n])), iterations, residual, result, escaped, stats
 
 
-@eqx.filter_jit
 def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, partner=None):
-    """The traced part of :func:`solve_radiosity` (compiled once per shape and solver)."""
+    """The compiled part of :func:`solve_radiosity` (once per shape and solver): in a run with
+    the compilation cache on (the command line), through a stored export of it
+    (:mod:`lumijax._export`: a new process neither traces nor lowers it again); else, and
+    inside a trace, the jitted :func:`_solve_body`. The two give the same bits."""
+    args = (transport, rho, b0, solver, rtol, max_steps, correct_rows, tau, partner)
+    if _export.export_dir() is not None:
+        out = _export.call("radiosity_solve", _solve_packed, args,
+                           _export.source_digest("radiosity/", "kernels/"))
+        if out is not None:
+            stats = {k[6:]: v for k, v in out.items() if k.startswith("stats.")}
+            result = eqx.tree_at(lambda r: r._value, lx.RESULTS.successful, out["result"])
+            return (out["b"], out["iterations"], out["residual"], result, out["escaped"],
+                    stats)
+    return _solve_jit(*args)
+
+
+def _solve_packed(*args) -> dict:
+    """:func:`_solve_body` with its outputs as one flat dict of arrays (what ``jax.export``
+    serialises: lineax's RESULTS travels as its integer code)."""
+    b, iterations, residual, result, escaped, stats = _solve_body(*args)
+    return {"b": b, "iterations": iterations, "residual": residual, "result": result._value,
+            "escaped": escaped, **{f"stats.{k}": jnp.asarray(v) for k, v in stats.items()}}
+
+
+def _solve_body(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None,
+                partner=None):
+    """The traced part of :func:`solve_radiosity`."""
     rows = transport.row_sums()
     shape = (-1,) + (1,) * (b0.ndim - 1)
     if correct_rows:
@@ -380,6 +411,9 @@ def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, 
     return b, jnp.asarray(iterations), residual, result, escaped, stats
 
 
+_solve_jit = eqx.filter_jit(_solve_body)
+
+
 def _residual(op: ReflectionOperator, b0, b):
     """Worst column's ``‖b0 − (I − K) b‖_∞ / ‖b0‖_∞``, in float64 when JAX has it."""
     wide = jnp.float64 if jax.config.read("jax_enable_x64") else b.dtype
@@ -402,8 +436,13 @@ def _name(solver: AbstractRadiositySolver) -> str:
 
 
 def _raise_if_failed(sol: RadiositySolution, solver, rtol: float, max_steps: int):
-    failed = (sol.result != lx.RESULTS.successful) | (sol.residual > 10 * rtol)
-    ok, res = _concrete(~failed), _concrete(sol.residual)
+    code, res = _concrete(getattr(sol.result, "_value", None)), _concrete(sol.residual)
+    if code is not None and res is not None:  # on the host: eager jnp ops compile kernels
+        failed = (code != np.asarray(lx.RESULTS.successful._value)) | (res > 10 * rtol)
+        ok = np.asarray(~failed)
+    else:
+        failed = (sol.result != lx.RESULTS.successful) | (sol.residual > 10 * rtol)
+        ok, res = _concrete(~failed), _concrete(sol.residual)
     hint = (f"raise [solver] max_iterations (now {max_steps}), loosen [solver] tolerance "
             f"(now {rtol:g}), or choose another [solver] method ({', '.join(RADIOSITY_SOLVERS)})")
     if ok is None or res is None:
