@@ -14,7 +14,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lumijax"
 # any layer with a smaller rank.
 LAYERS = [
     ("errors", "_version"),
-    ("_atomic", "_registry", "_jit_cache", "_export"),
+    ("_atomic", "_registry", "_jit_cache"),
+    ("_export",),
     ("parallel",),
     ("config",),
     ("spectral",),
