@@ -137,12 +137,20 @@ def _ribbed_plates():
     return p, partition(p, 60, occluders=tri), tri
 
 
-@pytest.mark.parametrize("hierarchical", [True, False], ids=["clusters", "blocks"])
-def test_self_shadowed_far_pairs_are_compressed_with_their_shadows(hierarchical):
+@pytest.fixture(scope="module")
+def ribbed():
+    """The ribbed plates with their dense operator and the one-level operator that keeps
+    shadowed far pairs dense: the same for both parametrisations below, so built once."""
     p, part, tri = _ribbed_plates()
     dense = build_operator(p, part, tri, DENSE)
-    op = build_operator(p, part, tri, FormFactorSettings(hierarchical=hierarchical))
     flat = build_operator(p, part, tri, FormFactorSettings(hierarchical=False, lowrank_shadowed=False))
+    return p, part, tri, dense, flat
+
+
+@pytest.mark.parametrize("hierarchical", [True, False], ids=["clusters", "blocks"])
+def test_self_shadowed_far_pairs_are_compressed_with_their_shadows(hierarchical, ribbed):
+    p, part, tri, dense, flat = ribbed
+    op = build_operator(p, part, tri, FormFactorSettings(hierarchical=hierarchical))
     info = op.info
     # the ribs penetrate the candidates' hulls: the exact hull test cannot prove them clear
     assert flat.info["lowrank_mixed_visibility"] > 0.5 * flat.info["lowrank_candidates"]
