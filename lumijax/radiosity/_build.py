@@ -213,7 +213,7 @@ def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
     a, b = k % q, (k * 7 + 3 * (k // q) + 1) % q  # a fixed scramble pairing points of i and j
     o = qi[:, a].reshape(-1, 3)
     t = qj[:, b].reshape(-1, 3)
-    return caster.transmission(o, t).reshape(n, rays).mean(axis=1)
+    return caster.pair_transmission(o, t).reshape(n, rays).mean(axis=1)
 
 
 def _near_pairs(p: Patches, i, j, s: FormFactorSettings, caster, counters) -> np.ndarray:
@@ -264,7 +264,7 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
                       d2[fi, fj], ai[fi], aj[fj], spread[ia[fi]], spread[ib[fj]])
     if caster is not None and len(fi):
         t0 = time.perf_counter()
-        carried = caster.transmission(ci[fi], cj[fj])  # 0, 1, or τ(θ) through clear glass
+        carried = caster.pair_transmission(ci[fi], cj[fj])  # 0, 1, or τ(θ) through glass
         counters["ray_time"] += time.perf_counter() - t0
         counters["rays"] += len(fi)
         g[fi, fj] *= carried

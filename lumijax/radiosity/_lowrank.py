@@ -121,7 +121,8 @@ def _kernel(c, n, a, s, C, N, A, S, caster=None, reverse=False, counters=None):
         idx = np.flatnonzero(ok)
         one = np.broadcast_to(c, (len(idx), 3))
         # ×0 blocked, ×τ(θ) through clear glass (docs/materials.md), ×1 clear
-        g[idx] *= caster.transmission(C[idx], one) if reverse else caster.transmission(one, C[idx])
+        g[idx] *= (caster.pair_transmission(C[idx], one) if reverse
+                    else caster.pair_transmission(one, C[idx]))
         counters["rays"] += len(idx)
     return g
 
@@ -137,7 +138,7 @@ def exact_block_rows(ca, na, aa, sa, cb, nb, ab, sb, caster, counters):
     g[fi, fj] = far_g(cos_i[fi, fj], cos_j[fi, fj], np.einsum("nk,nk->n", na[fi], nb[fj]),
                       d2[fi, fj], aa[fi], ab[fj], sa[fi], sb[fj])
     if caster is not None and len(fi):
-        g[fi, fj] *= caster.transmission(ca[fi], cb[fj])
+        g[fi, fj] *= caster.pair_transmission(ca[fi], cb[fj])
         counters["rays"] += len(fi)
     return g
 
@@ -170,7 +171,7 @@ def _entries(ii, jj, ca, na, aa, sa, cb, nb, ab, sb, caster, counters):
     g = np.where(ok, g, 0.0)
     if caster is not None and ok.any():
         idx = np.flatnonzero(ok)
-        g[idx] *= caster.transmission(ca[ii[idx]], cb[jj[idx]])
+        g[idx] *= caster.pair_transmission(ca[ii[idx]], cb[jj[idx]])
         counters["rays"] += len(idx)
     return g
 

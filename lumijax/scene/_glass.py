@@ -172,6 +172,36 @@ class GlazedCaster(RayCaster):
                                dists=tfar.astype(np.float32), query="OCCLUDED")
         return (np.asarray(hit) >= 0) & ok
 
+    def pair_transmission(self, origins, targets) -> Float[np.ndarray, " rays"]:
+        """:meth:`transmission` of a visibility ray between two patches, × (1 − τ(θ)) for an
+        end that lies on a pane (a pane's own patch, dimensionless).
+
+        A patch facing a pane sees the pane's patch and, × τ(θ), what lies behind it: the
+        pane's footprint twice, so its row of F summed to 1 + τ F(pane) in a closed room, and
+        the solve's row correction took that for discretisation error and cut the row. A pane
+        is reached by the share of the light it does not pass, so its patch's factor is the
+        bare one × (1 − τ(θ)) and the row sums to 1 again (its own diffuse reflection then
+        applies to that share: give clear glass ``reflectance`` 0, docs/materials.md)."""
+        out = self.transmission(origins, targets)
+        if self._panes is None:
+            return out
+        start, d, tfar, ok = self._segments(origins, targets)
+        live = np.flatnonzero((out > 0) & ok)
+        if not len(live):
+            return out
+        e = self.epsilon
+        # a short probe across each end (±3 ε): a pane there holds that end
+        for at in (start[live] - e * d[live], start[live] + tfar[live, None] * d[live]
+                   + e * d[live]):
+            res = self._panes.run((at - 3 * e * d[live]).astype(np.float32),
+                                  d[live].astype(np.float32),
+                                  dists=np.full(len(live), 6 * e, np.float32), output=1)
+            prim = np.asarray(res["primID"], np.int64)
+            on = prim >= 0
+            cos = np.einsum("nk,nk->n", d[live][on], self._glass_normal[prim[on]])
+            out[live[on]] *= 1.0 - glass_transmittance(cos, self._glass_tau[prim[on]])
+        return out
+
     def transmission(self, origins, targets) -> Float[np.ndarray, " rays"]:
         """Fraction of light carried along each open segment (dimensionless, in [0, 1])."""
         out = np.where(self.occluded(origins, targets), 0.0, 1.0)

@@ -118,6 +118,16 @@ class RayCaster:
         is opaque here; ``lumijax.scene.GlazedCaster`` lets clear glass through)."""
         return np.where(self.occluded(origins, targets), 0.0, 1.0)
 
+    def pair_transmission(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        targets: Float[np.ndarray, "rays 3"],
+    ) -> Float[np.ndarray, " rays"]:
+        """:meth:`transmission` of a form factor's visibility ray between two patches (the
+        same here; a glazed caster also weighs an end that lies on a pane by the light the pane
+        does not pass)."""
+        return self.transmission(origins, targets)
+
     def first_hit_through(
         self,
         origins: Float[np.ndarray, "rays 3"],
