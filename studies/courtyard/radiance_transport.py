@@ -35,6 +35,7 @@ Stages (each reads the previous one's files in ``--work``)::
     python studies/courtyard/radiance_transport.py culls      # light the partition's cull drops
     python studies/courtyard/radiance_transport.py visibility # far pairs by 16 shadow rays
     python studies/courtyard/radiance_transport.py fine       # the same B₀ on a finer mesh
+    python studies/courtyard/radiance_transport.py box        # a control: an open box
     python studies/courtyard/radiance_transport.py compare    # the tables
 
 The results and what they decide are in docs/radiosity.md ("Accuracy on the courtyard").
@@ -386,6 +387,63 @@ def fine(args) -> None:
           f"{time.perf_counter() - t:.0f} s", flush=True)
 
 
+def box(args) -> None:
+    """A control without contact lines or buried patches: an open-topped 4 × 4 × 3 m box,
+    only the floor glowing (B₀ = π lm/m²), ρ 0.6 walls and 0.3 floor, blocks and sampled
+    transport against the same Radiance set-up at 100 receivers (all bounces and first)."""
+    import jax.numpy as jnp
+    import pyradiance as pr
+    import trimesh
+
+    from lumijax.radiosity import (
+        SampledSettings,
+        build_operator,
+        build_sampled,
+        mesh_patches,
+        partition,
+        solve_radiosity,
+    )
+    from lumijax.scene._raycast import RayCaster
+
+    work = Path(args.work) / "box"
+    work.mkdir(parents=True, exist_ok=True)
+    m = trimesh.creation.box(extents=(4.0, 4.0, 3.0))
+    m.apply_translation((0, 0, 1.5))
+    m.invert()  # faces point inwards
+    tri = np.asarray(m.triangles, np.float64)
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    tri = tri[nrm[:, 2] > -0.5]  # drop the ceiling (its normal points down)
+    p = mesh_patches(tri, patch_size=0.25)
+    up = p.normal[:, 2] > 0.5
+    rho = np.where(up, 0.3, 0.6)
+    b0 = np.where(up, np.pi, 0.0)
+    caster = RayCaster(tri)
+    res = {}
+    bj, rj = jnp.asarray(b0[:, None], jnp.float32), jnp.asarray(rho, jnp.float32)
+    for name, op in (("blocks", build_operator(p, partition(p, 1024, occluders=caster), caster,
+                                               occluder_triangles=tri)),
+                     ("sampled4096", build_sampled(p, tri, SampledSettings(rays_per_patch=4096),
+                                                   caster=caster))):
+        sol = solve_radiosity(op, rj, bj)
+        res[name] = (np.asarray(op.matmul(bj))[:, 0], np.asarray(op.matmul(sol.value))[:, 0])
+    recv = _sample_receivers(p.area, 100)
+    pts = (_points_in(p.vertices[recv], 16) + 1e-3 * p.normal[recv, None]).reshape(-1, 3)
+    nn = np.repeat(p.normal[recv], 16, axis=0)
+    common = ["-aa", "0", "-as", "0", "-lw", "1e-7", "-av", "0", "0", "0"]
+    print(f"{p.n:,} patches, {len(recv)} receivers")
+    print("| quantity | operator | mean vs Radiance | RMS per patch (raw) |\n|---|---|---|---|")
+    for k, (reflect, params) in enumerate(((False, ["-ab", "1", "-ad", "1024", *common]),
+                                           (True, ["-ab", "20", "-lr", "50", "-ad", "512",
+                                                   *common]))):
+        _scene(work / "box.rad", p.vertices, b0, rho, reflect, args.w)
+        (work / "box.oct").write_bytes(pr.oconv(str(work / "box.rad")))
+        ref = _rtrace(work / "box.oct", pts, nn, params).reshape(len(recv), 16).mean(axis=1)
+        for name, v in res.items():
+            x = v[k][recv]
+            print(f"| {('first', 'all bounces')[k]} | {name} | {np.sum(x - ref) / np.sum(ref):+.2%} "
+                  f"| {np.sqrt(np.mean((x - ref) ** 2) / np.mean(ref**2)):.1%} |", flush=True)
+
+
 def visibility(args) -> None:
     """The block operator's far pairs see each other by one centroid-to-centroid shadow ray
     (all or nothing). For receivers of the Radiance sample, recompute the far part of their row
@@ -517,7 +575,8 @@ def compare(args) -> None:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("stage", choices=("solve", "radiance", "rows", "culls", "fine", "visibility", "compare"))
+    ap.add_argument("stage", choices=("solve", "radiance", "rows", "culls", "fine", "box", "visibility",
+                                          "compare"))
     ap.add_argument("--work", default="/tmp/lumijax-radiance-transport")
     ap.add_argument("--bays", type=int, default=6)
     ap.add_argument("--facades", default="S")
@@ -537,7 +596,7 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=1, help="radiance: the points' seed (one run)")
     ap.add_argument("--w", type=float, default=0.3, help="glow weight of the mixfunc")
     args = ap.parse_args(argv)
-    {"solve": solve, "radiance": radiance, "rows": rows, "culls": culls, "fine": fine,
+    {"solve": solve, "radiance": radiance, "rows": rows, "culls": culls, "fine": fine, "box": box,
      "visibility": visibility,
      "compare": compare}[args.stage](args)
 
