@@ -140,7 +140,8 @@ def test_rough_floor_reflects_the_ward_lobe_of_a_uniform_sky():
     optics = Optics.lambertian(1)
     optics.specular[0] = rho_s
     optics.roughness[0] = alpha
-    tracer = _tracer_of(tri, 0.0, optics, scene, depth=1, lobe_rays=8)
+    # Ward's own albedo is what is checked: its lobe named (the tracer's default is "wgmd")
+    tracer = _tracer_of(tri, 0.0, optics, scene, depth=1, lobe_rays=8, lobe="ward")
     cam = Perspective(position=(0.0, 0.0, 1.5), target=(0.0, 1.5, 0.0), size=(60, 60),
                       fov_deg=20.0)
     lum = tracer.render(cam, [1.0]).luminance
