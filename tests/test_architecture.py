@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lumijax"
 # The order of docs/architecture.md, bottom first. A module may import its own layer's modules and
 # any layer with a smaller rank.
 LAYERS = [
-    ("errors", "_version"),
+    ("errors", "_version", "_lazy"),
     ("_atomic", "_registry", "_jit_cache"),
     ("_export",),
     ("parallel",),
