@@ -182,3 +182,44 @@ def test_light_samples_pass_a_clear_pane_with_its_transmittance():
     rays = np.repeat((point - eye)[None], 1250, axis=0)
     got = tracer.radiance(eye, rays, [1.0])[:, 1].mean()
     assert got == pytest.approx(expect, rel=0.01)
+
+
+def test_downlight_highlight_on_a_rough_floor():
+    """A Lambertian downlight (a 0.2 m disk opening 3 m up, L = Φ/(πA) from its photometry,
+    drawn as the 24-gon proxy) over the rough floor: the highlight at 45° against the wgmd
+    closed form integrated over the disk in polar coordinates, with 1,250 view rays. The light
+    samples go through the luminaire's own path (its photometry's flux for the choice, I/A_p
+    toward the hit)."""
+    from test_traced_closed_form import _downlight
+
+    flux, diameter, height = 2000.0, 0.2, 3.0
+    lum = flux / (math.pi * math.pi * (diameter / 2) ** 2)
+    t = math.tan(math.radians(45.0))
+    point = np.array([-t * height, 0.0, 0.0])
+    eye = np.array([point[0] - t * 1.5, 0.0, 1.5])
+    n = 400
+    r = (np.arange(n) + 0.5) / n * diameter / 2
+    phi = (np.arange(n) + 0.5) / n * 2 * math.pi
+    rr, pp = np.meshgrid(r, phi, indexing="ij")
+    q = np.stack([rr * np.cos(pp), rr * np.sin(pp), np.full_like(rr, height)], -1)
+    to_l = q - point
+    d2 = np.einsum("...k,...k->...", to_l, to_l)
+    i = to_l / np.sqrt(d2)[..., None]
+    o = (eye - point) / np.linalg.norm(eye - point)
+    h = i + o
+    tan2 = (h[..., 0] ** 2 + h[..., 1] ** 2) / h[..., 2] ** 2
+    f = (np.exp(-tan2 / ALPHA ** 2) * np.einsum("...k,...k->...", h, h)
+         / (math.pi * ALPHA ** 2 * h[..., 2] ** 4))
+    domega = rr * (diameter / 2 / n) * (2 * math.pi / n) * i[..., 2] / d2
+    expect = float(RHO_S * lum * np.sum(f * i[..., 2] * domega))
+    big = 50.0
+    tri = np.array([[[-big, -big, 0.0], [big, -big, 0.0], [big, big, 0.0]],
+                    [[-big, -big, 0.0], [big, big, 0.0], [-big, big, 0.0]]])
+    optics = Optics.lambertian(1)
+    optics.specular[0] = RHO_S
+    optics.roughness[0] = ALPHA
+    tracer = _tracer_of(tri, 0.0, optics, _downlight(height, flux, diameter), depth=1,
+                        lobe_rays=8, seed=3)
+    rays = np.repeat((point - eye)[None], 1250, axis=0)
+    got = tracer.radiance(eye, rays, [1.0])[:, 1].mean()
+    assert got == pytest.approx(expect, rel=0.01)
