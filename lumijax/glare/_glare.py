@@ -41,30 +41,27 @@ class Glare:
     observers: tuple = ()
     surfaces: SeenSurfaces | None = None
     radiosity: np.ndarray | None = None
-    #: ``(DimmerGlare, per-source UGR terms, veiling terms, source network)`` at dimmer 1 and
-    #: this record's aims and levels, shared by the records ``at`` makes at other dimmers
-    unit: tuple | None = None
+    #: Each network's terms at dimmer 1 and this record's aims and levels (a :class:`_Unit`,
+    #: computed when first asked), shared by the records ``at`` makes at other dimmers
+    unit: _Unit | None = None
 
     def at(self, design) -> Glare:
         """The same observers at ``design`` (exact: by superposition when only the dimmers
-        differ from this record's design, else through the full model)."""
+        differ from this record's design, else through the full model). Nothing is rated
+        until the new record is asked (a constrained design lights its result with
+        ``Results.at`` and reads no glare there unless it bounds it)."""
         if self.design.only_dimmers_differ(design):
             return dataclasses.replace(self, design=design, unit=self._unit)
         return dataclasses.replace(self, design=design, unit=None)
 
     @cached_property
-    def _unit(self) -> tuple:
-        if self.unit is not None:
-            return self.unit
-        ones = self.design.replace(dimmers=np.ones(len(self.design.networks)))
-        u, v = self.model.contributions(ones)
-        return (self.model.at_aims(self.design), np.asarray(u, np.float64),
-                np.asarray(v, np.float64), np.asarray(self.model._source_network()))
+    def _unit(self) -> _Unit:
+        return self.unit if self.unit is not None else _Unit(self.model, self.design)
 
     @cached_property
     def ratings(self) -> GlareRatings:
         if self.unit is not None:
-            rated = self.unit[0](np.asarray(self.design.dimmers, np.float64))
+            rated = self.unit.superposed(np.asarray(self.design.dimmers, np.float64))
         else:
             rated = self.model(self.design)
         return GlareRatings(*(np.asarray(a, np.float64) for a in rated))
@@ -72,7 +69,7 @@ class Glare:
     @cached_property
     def _contributions(self) -> tuple[np.ndarray, np.ndarray]:
         if self.unit is not None:  # L² ω / p² scales with α², the veiling luminance with α
-            _, u, v, net = self.unit
+            u, v, net = self.unit.terms
             a = np.asarray(self.design.dimmers, np.float64)[net]
             return u * (a * a)[None], v * a[None]
         u, v = self.model.contributions(self.design)
@@ -246,3 +243,24 @@ def _check_finite(value, key: str) -> None:
     elif isinstance(value, float) and not np.isfinite(value):
         raise SolveError(f"{value} is not finite: the glare computation overflowed; check the "
                          "study's magnitudes (flux_lm, multiplier)", key=f"results.json: {key}")
+
+
+class _Unit:
+    """A :class:`GlareModel`'s terms at dimmer 1 and one design's aims and levels, each computed
+    when first asked and then kept: ``superposed`` (a :class:`~lumijax.glare.DimmerGlare`, the
+    ratings at any dimmers) and ``terms`` (per view and source, the UGR and veiling terms and
+    each source's network), for the :class:`Glare` records of that design at other dimmers."""
+
+    def __init__(self, model: GlareModel, design):
+        self.model, self.design = model, design
+
+    @cached_property
+    def superposed(self):
+        return self.model.at_aims(self.design)
+
+    @cached_property
+    def terms(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        ones = self.design.replace(dimmers=np.ones(len(self.design.networks)))
+        u, v = self.model.contributions(ones)
+        return (np.asarray(u, np.float64), np.asarray(v, np.float64),
+                np.asarray(self.model._source_network()))
