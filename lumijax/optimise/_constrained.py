@@ -3,8 +3,14 @@ variables subject to hard constraints, by scipy's SLSQP (default) or trust-const
 
 ``f`` and the margins ``g`` (one per constraint, ≥ 0 when met; ``_constraints``) are compiled
 once with their gradient and Jacobian (reverse mode: a few constraints, up to thousands of
-variables). The aggregation of minima and maxima is solved by continuation: first at ε = 10⁻²
-(gentle curvature, a good active set), then from there at the requested ε.
+variables). Over the dimmers alone (or any light model but the aim model's) one program gives
+everything at a point — f, ∇f, the margins, their Jacobian and the exact criteria
+(:func:`_evaluate`) — so SLSQP's function and constraint calls at an iterate share one
+evaluation, the start, the KKT multipliers and the model's values at the end cost no other
+compilation, and a design compiles two programs in all (this and the exact check of the lit
+design, :func:`light_report`), where the demo's design compiled 48 before
+(benchmarks/design.py). The aggregation of minima and maxima is solved by continuation: first
+at ε = 10⁻² (gentle curvature, a good active set), then from there at the requested ε.
 
 After the solve the Lagrange multipliers are recovered from the KKT conditions at the solution,
 independently of the method: ``∇f = Σ μ_j ∇g_j + Σ ν_i (±e_i)`` over the active constraints and
@@ -23,11 +29,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._constraints import AbstractConstraint, DesignLight
+from ._constraints import AbstractConstraint, DesignLight, constraint_margins, constraint_values
 from ._models import AimLight
 
 __all__ = ["DesignProblem", "ConstrainedRun", "solve_constrained", "kkt_multipliers",
-           "exact_values"]
+           "exact_values", "objective_value", "light_report"]
 
 _ACTIVE = 1e-3  # a margin (relative) below which a constraint counts as active
 _COARSE = 1e-2  # the first aggregation ε of the continuation
@@ -56,10 +62,12 @@ class DesignProblem(eqx.Module):
         light = self.light(x)
         if not self.constraints:
             return jnp.zeros(0, x.dtype)
-        return jnp.stack([c.margin(light, smooth) for c in self.constraints])
+        return self.margins(light, smooth)
 
     def margins(self, light: DesignLight, smooth):
-        return jnp.stack([c.margin(light, smooth) for c in self.constraints])
+        """Every margin (``AbstractConstraint.margin``), the constraints of a kind evaluated
+        together (``_constraints.constraint_margins``)."""
+        return constraint_margins(self.constraints, light, smooth)
 
     def g_and_jac(self, x, smooth):
         """The margins and their Jacobian (constraints × variables). Through an aim model by
@@ -80,8 +88,14 @@ class DesignProblem(eqx.Module):
 
     def values(self, x, smooth=None):
         light = self.light(x)
-        return jnp.stack([c.value(light, smooth) for c in self.constraints]) if (
+        return constraint_values(self.constraints, light, smooth) if (
             self.constraints) else jnp.zeros(0)
+
+    @property
+    def fused(self) -> bool:
+        """Whether :func:`_evaluate` serves every call at a point: all light models but the
+        aim model, whose Jacobian costs 2.4 margins (SLSQP's line search asks f and g alone)."""
+        return not isinstance(self.model, AimLight)
 
 
 @eqx.filter_jit
@@ -99,8 +113,7 @@ def _g_jac_traced(problem, x, smooth):
     return _g_and_jac_traced(problem, x, smooth)[1]
 
 
-@eqx.filter_jit
-def _g_and_jac_traced(problem, x, smooth):
+def _g_and_jac_body(problem, x, smooth):
     """Margins and their Jacobian from one linearisation, so that SLSQP's ``cons`` and ``jac``
     at a point light it once."""
     if not problem.constraints:
@@ -108,41 +121,106 @@ def _g_and_jac_traced(problem, x, smooth):
     return problem.g_and_jac(x, smooth)
 
 
+_g_and_jac_traced = eqx.filter_jit(_g_and_jac_body)
+
+
 @eqx.filter_jit
 def _values_traced(problem, x):
     return problem.values(x)
 
 
+@eqx.filter_jit
+def _evaluate(problem, x, smooth):
+    """``(f, ∇f, g, ∂g/∂x, exact values)`` at ``x`` in one program (``DesignProblem.fused``):
+    for the dimmers everything is linear in α before the aggregations, so this graph is small
+    and one compilation serves the whole design."""
+    f, df = jax.value_and_grad(problem.f)(x)
+    g, jac = _g_and_jac_body(problem, x, smooth)
+    return f, df, g, jac, problem.values(x)
+
+
+def _host(x):
+    """A host float64 array: ``filter_jit`` takes a NumPy array as a traced argument (a NumPy
+    scalar or a Python float would be static: a compilation per value)."""
+    return np.asarray(x, np.float64)
+
+
 # ε is an array (traced), so that the continuation's two ε compile once
 def _g(problem, x, smooth):
+    if problem.fused:
+        return _evaluate(problem, _host(x), _host(smooth))[2]
     return _g_traced(problem, x, jnp.asarray(smooth, jnp.float64))
 
 
 def _g_jac(problem, x, smooth):
+    if problem.fused:
+        return _evaluate(problem, _host(x), _host(smooth))[3]
     return _g_jac_traced(problem, x, jnp.asarray(smooth, jnp.float64))
+
+
+def _value_and_grad(problem, x):
+    """``(f, ∇f)`` at ``x`` (f divided by ``objective_scale``)."""
+    if problem.fused:
+        return _evaluate(problem, _host(x), _host(_COARSE))[:2]
+    return _f_grad(problem, jnp.asarray(x))
 
 
 def exact_values(problem, x):
     """Every constraint's exact value (natural units) at ``x``, compiled."""
+    if problem.fused:
+        return _evaluate(problem, _host(x), _host(_COARSE))[4]
     return _values_traced(problem, jnp.asarray(x))
+
+
+def objective_value(problem, x) -> float:
+    """The objective at ``x`` in natural units (W for power)."""
+    return float(_value_and_grad(problem, x)[0]) * problem.objective_scale
+
+
+@eqx.filter_jit
+def _light_report(constraints, objective, light):
+    return constraint_values(constraints, light, None), objective(light)
+
+
+def light_report(constraints, objective, light: DesignLight) -> tuple[np.ndarray, float]:
+    """``(exact values, objective)`` of a lit design's :class:`DesignLight` (natural units),
+    in one compiled program: the check of the final design on the exact criteria."""
+    if not constraints:
+        return np.zeros(0), float(objective(light))
+    v, f = _light_report(tuple(constraints), objective, light)
+    return np.asarray(v, np.float64), float(f)
 
 
 class _Margins:
     """``cons``/``jac`` callbacks of one solve: the margins and their Jacobian at the last point
-    asked, computed together once (SLSQP asks both at each new iterate)."""
+    asked, computed together once (SLSQP asks both at each new iterate); for a fused problem
+    with f and ∇f too (``value_and_grad``), all from one call of :func:`_evaluate`."""
 
     def __init__(self, problem, smooth):
-        self.problem, self.smooth = problem, jnp.asarray(smooth, jnp.float64)
+        self.problem, self.smooth = problem, _host(smooth)
         self.key: bytes | None = None
         self.g = self.jac = np.zeros(0)
+        self.f, self.df = 0.0, np.zeros(0)
 
     def _at(self, x):
         x = np.asarray(x, np.float64)
         if self.key != x.tobytes():
-            g, jac = _g_and_jac_traced(self.problem, jnp.asarray(x), self.smooth)
+            if self.problem.fused:
+                f, df, g, jac, _ = _evaluate(self.problem, x, self.smooth)
+                self.f, self.df = float(f), np.asarray(df, np.float64)
+            else:
+                g, jac = _g_and_jac_traced(self.problem, jnp.asarray(x),
+                                           jnp.asarray(self.smooth))
             self.g = np.asarray(g, np.float64)
             self.jac = np.asarray(jac, np.float64).reshape(-1, len(x))
             self.key = x.tobytes()
+
+    def value_and_grad(self, x):
+        if not self.problem.fused:
+            v, g = _f_grad(self.problem, jnp.asarray(x))
+            return float(v), np.asarray(g, np.float64)
+        self._at(x)
+        return self.f, self.df
 
     def cons(self, x):
         self._at(x)
@@ -183,14 +261,12 @@ def _one_solve(problem, x0, lo, hi, smooth, method, max_steps, tol):
 
     counter = {"n": 0}
     history: list[float] = []
+    margins = _Margins(problem, smooth)
+    cons, jac = margins.cons, margins.jacobian
 
     def fun(x):
         counter["n"] += 1
-        v, g = _f_grad(problem, jnp.asarray(x))
-        return float(v), np.asarray(g, np.float64)
-
-    margins = _Margins(problem, smooth)
-    cons, jac = margins.cons, margins.jacobian
+        return margins.value_and_grad(x)
 
     def callback(*args):
         xk = args[0] if not hasattr(args[0], "x") else args[0].x
@@ -234,18 +310,18 @@ def solve_constrained(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-
     x = np.clip(np.asarray(x0, np.float64), lo, hi)
     schedule = [smooth] if smooth >= _COARSE else [_COARSE, smooth]
     iterations = evaluations = 0
-    history = [float(_f_grad(problem, jnp.asarray(x))[0]) * problem.objective_scale]
+    history = [objective_value(problem, x)]
     res = None
     for eps in schedule:
         x, res, n, hist = _one_solve(problem, x, lo, hi, eps, method, max_steps, tolerance)
         iterations += int(getattr(res, "nit", 0) or 0)
         evaluations += n
         history += hist
-    g = np.asarray(_g(problem, jnp.asarray(x), smooth), np.float64)
+    g = np.asarray(_g(problem, x, smooth), np.float64)
     violation = float(np.max(-g, initial=0.0)) if g.size else 0.0
     violation = max(violation, 0.0)
     mu, prices, active = kkt_multipliers(problem, x, lo, hi, smooth)
-    obj = float(_f_grad(problem, jnp.asarray(x))[0]) * problem.objective_scale
+    obj = objective_value(problem, x)
     return ConstrainedRun(
         method=method, x=x, objective=obj, violation=violation, iterations=iterations,
         evaluations=evaluations, success=bool(res.success) and violation <= tolerance,
@@ -262,11 +338,15 @@ def kkt_multipliers(problem: DesignProblem, x, lo, hi, smooth, *, active_tol: fl
 
     x = np.asarray(x, np.float64)
     m = len(problem.constraints)
-    _, grad = _f_grad(problem, jnp.asarray(x))
+    if problem.fused:  # one call: ∇f, g and J at x
+        _, grad, g, jac, _ = _evaluate(problem, x, _host(smooth))
+    else:
+        _, grad = _f_grad(problem, jnp.asarray(x))
+        if m:
+            g, jac = _g_and_jac_traced(problem, jnp.asarray(x), jnp.asarray(smooth, jnp.float64))
     grad = np.asarray(grad, np.float64)
     if m == 0:
         return np.zeros(0), np.zeros(0), np.zeros(0, bool)
-    g, jac = _g_and_jac_traced(problem, jnp.asarray(x), jnp.asarray(smooth, jnp.float64))
     g = np.asarray(g, np.float64)
     jac = np.asarray(jac, np.float64).reshape(m, -1)
     active = g <= active_tol

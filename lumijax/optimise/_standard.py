@@ -20,7 +20,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ConfigError
-from ._constrained import DesignProblem, _f_grad, exact_values, solve_constrained
+from ._constrained import (
+    DesignProblem,
+    exact_values,
+    light_report,
+    objective_value,
+    solve_constrained,
+)
 from ._constraints import (
     DesignLight,
     GridAverage,
@@ -203,9 +209,13 @@ def _glare_constraints(cc, key, glare, params, cfg):
 
 def _at_results(c, after):
     """A glare constraint checked on the glare of the final results (their background lit at
-    the final aims, when the design re-aims: the solver's model keeps the start's)."""
+    the final aims, when the design re-aims: the solver's model keeps the start's). Rated by
+    superposition (only the dimmers were free) it keeps it: the final results' glare is the
+    start's model at other dimmers, which the superposition rates exactly (``Glare.at`` does
+    the same), and the exact check then compiles nothing the solve did not."""
     if isinstance(c, GlareConstraint) and after.glare is not None:
-        c = dataclasses.replace(c, superposed=None)  # the final check: the full model
+        if c.superposed is None or not after.design.only_dimmers_differ(c.params.start):
+            c = dataclasses.replace(c, superposed=None)  # the final check: the full model
         return eqx.tree_at(lambda g: g.model, c, after.glare.model)
     return c
 
@@ -268,15 +278,17 @@ def _power_model(setup, sc) -> PowerModel:
 
 
 def exact_light(study, results, params) -> DesignLight:
-    """The light of exact results (grid illuminance, patch radiosity at the dimmers)."""
+    """The light of exact results (grid illuminance, patch radiosity at the dimmers), as host
+    float64 arrays (the compiled check reads them as arguments; ``jnp.asarray`` of each would
+    compile a copy kernel)."""
     e = np.concatenate([results.grids[g.name].illuminance_lux for g in study.scene.grids])
     alpha = np.asarray(results.design.dimmers, np.float64)
     lighting = results.lighting
     b = None
     if lighting is not None and lighting.coarse.patches is not None and lighting.coarse.radiosity.size:
-        b = jnp.asarray(alpha @ np.asarray(lighting.coarse.radiosity, np.float64))
-    return DesignLight(jnp.asarray(e), b, jnp.asarray(alpha),
-                       jnp.asarray(params.flatten(results.design)))
+        b = alpha @ np.asarray(lighting.coarse.radiosity, np.float64)
+    return DesignLight(np.asarray(e, np.float64), b, alpha,
+                       np.asarray(params.flatten(results.design), np.float64))
 
 
 def _starts(params, n, seed):
@@ -332,9 +344,9 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
         objective, unit = _Misfit(Objective.build(targets, setup.power).only("target")), ""
         scale = 1.0
     problem = DesignProblem(model, objective, constraints, objective_scale=scale)
-    x_start = jnp.asarray(params.x0)
+    x_start = np.asarray(params.x0, np.float64)
     start_values = np.asarray(exact_values(problem, x_start), np.float64)
-    start_objective = float(_f_grad(problem, x_start)[0]) * scale
+    start_objective = objective_value(problem, x_start)
     tol, eps = ocfg.constraint_tolerance, ocfg.smoothing
 
     runs = []
@@ -374,11 +386,14 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
     table, unmet = [], []
     # what the solver's light model says at the design (exact criteria): against the exact
     # re-computation it measures the model's error (aim model; glare background at the start)
-    modelled = np.asarray(exact_values(problem, jnp.asarray(x_best)), np.float64)
-    for (crit, c), v0, vm, price, act in zip(made, start_values, modelled, best.prices,
-                                             best.active, strict=True):
-        c = _at_results(c, after)
-        v = float(c.value(light, None))
+    modelled = np.asarray(exact_values(problem, np.asarray(x_best, np.float64)), np.float64)
+    # every exact criterion of the lit design, and its objective, in one compiled program
+    checked = tuple(_at_results(c, after) for _, c in made)
+    achieved, objective_end = light_report(checked, objective, light)
+    for (crit, _), c, v, v0, vm, price, act in zip(made, checked, achieved, start_values,
+                                                   modelled, best.prices, best.active,
+                                                   strict=True):
+        v = float(v)
         margin = float(c.sense * (v - float(c.bound)) / c.scale)
         met = margin >= -tol
         row = dict(label=c.label, key=c.key, criterion=crit, relation=c.relation,
@@ -403,7 +418,7 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
     constrained = {
         "verdict": verdict, "objective": ocfg.objective, "unit": unit,
         "objective_start": start_objective,
-        "objective_end": float(objective(light)),
+        "objective_end": objective_end,
         "method": best.method, "smoothing": eps, "tolerance": tol,
         "violation": float(best.violation), "iterations": int(best.iterations),
         "evaluations": int(best.evaluations),

@@ -179,3 +179,36 @@ def test_glare_constraint_differentiates_through_aims_and_levels(room):
                    for i in range(x0.size)], axis=1)
     assert np.abs(fd[:, [0, 2, 4, 6]]).min() > 0.1  # A's dimmer, tilt, pan, level all count
     np.testing.assert_allclose(jac, fd, rtol=1e-5, atol=1e-6)
+
+
+def test_superposed_glare_ceilings_batched_equal_their_own_values(room):
+    """The ceilings rated by superposition are evaluated as one batch
+    (``GlareConstraint.values_of``): UGR and GR of views (0,), (0, 0), (0, 0, 0) (rows of 1, 2
+    and 3 entries: the padding and ``t = ε / ln n`` per row) against each constraint's own
+    ``value``, smooth and exact, and their derivatives in the dimmers."""
+    import jax.numpy as jnp
+
+    from lumijax.design import traverse
+    from lumijax.optimise._constraints import DesignLight, constraint_values
+    from lumijax.optimise._glare_constraint import GlareConstraint
+
+    _, results = room
+    model = results.glare.model
+    params = traverse(results.design, ("dimmers",))
+    sup = model.at_aims(params.start)
+    cs = tuple(GlareConstraint(label=r, key="k", unit="", sense=-1, bound=jnp.asarray(20.0),
+                               model=model, params=params, rating=r, observer=0, views=v,
+                               ref=20.0, superposed=sup)
+               for r in ("ugr", "gr") for v in ((0,), (0, 0), (0, 0, 0)))
+
+    def light(alpha):
+        return DesignLight(jnp.zeros(1), None, alpha, alpha)
+
+    for smooth in (1e-2, None):
+        f = jax.jit(lambda a, s=smooth: constraint_values(cs, light(a), s))
+        g = jax.jit(lambda a, s=smooth: jnp.stack([c.value(light(a), s) for c in cs]))
+        alpha = jnp.asarray([0.7, 0.4])
+        np.testing.assert_allclose(np.asarray(f(alpha)), np.asarray(g(alpha)), rtol=1e-12)
+        np.testing.assert_allclose(np.asarray(jax.jit(jax.jacrev(f))(alpha)),
+                                   np.asarray(jax.jit(jax.jacrev(g))(alpha)), rtol=1e-10,
+                                   atol=1e-12)
