@@ -152,10 +152,8 @@ class GlareModel(eqx.Module):
         """The ratings at ``design``'s aims and levels for any dimmer vector (a
         :class:`DimmerGlare`: each network's terms summed once, at dimmer 1)."""
         ones = design.replace(dimmers=np.ones(len(design.networks)))
-        ugr_terms, veil_terms = _contributions(self, ones)
-        onehot = jax.nn.one_hot(self._source_network(), self.background.shape[1],
-                                dtype=ugr_terms.dtype)
-        return DimmerGlare(self, ugr_terms @ onehot, veil_terms @ onehot)
+        ugr_terms, veil_terms = _contributions(self, ones)  # shared with contributions()
+        return DimmerGlare(self, *_per_network(self, ugr_terms, veil_terms))
 
     def _source_network(self) -> Int[Array, " src"]:
         """Each source's network, in ``names`` order (as ``contributions`` gives them)."""
@@ -251,6 +249,16 @@ class DimmerGlare(eqx.Module):
         alpha = jnp.asarray(dimmers, self.ugr_terms.dtype)
         return self.model._rate(self.ugr_terms @ (alpha * alpha), self.veil_terms @ alpha,
                                 alpha)
+
+
+@eqx.filter_jit
+def _per_network(model: GlareModel, ugr_terms, veil_terms):
+    """Per view, each network's sum of the per-source terms: one program (op by op, the
+    network lookup and the one-hot product compiled ten kernels, ~0.5 s of a constrained
+    design's first call, contended)."""
+    onehot = jax.nn.one_hot(model._source_network(), model.background.shape[1],
+                            dtype=ugr_terms.dtype)
+    return ugr_terms @ onehot, veil_terms @ onehot
 
 
 @eqx.filter_jit
