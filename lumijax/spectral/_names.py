@@ -2,7 +2,8 @@
 
 Lookup is case-insensitive and ignores spaces, hyphens and underscores (``"led b1"`` finds
 ``LED-B1``). A leading ``"CIE "`` or ``"illuminant "`` is ignored. The registry is built lazily so
-that importing lumijax does not import colour-science.
+that importing lumijax does not import colour-science, and illuminants E, A, D50, D65 and FL11
+are answered without it (``_shipped``; same names, numbers and source strings).
 """
 
 from __future__ import annotations
@@ -139,6 +140,11 @@ def resolve(name: str, kind: str) -> tuple[str, np.ndarray, np.ndarray, str]:
     if not isinstance(name, str) or not name.strip():
         raise SpectrumError(f"a spectrum name must be a non-empty string, got {name!r}")
     fast = _equal_energy(name, kind)
+    if fast is None and kind == "emission":
+        # the illuminants studies name most (A, D65, ...) ship with lumijax: no colour import
+        from ._shipped import shipped_emission
+
+        fast = shipped_emission(name)
     if fast is not None:
         return fast
     reg = _registry(kind)

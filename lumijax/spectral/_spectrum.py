@@ -324,18 +324,16 @@ class Spectrum:
     def from_srgb(cls, rgb: Sequence[float] | np.ndarray, *, name: str | None = None) -> Spectrum:
         """A reflectance recovered from an sRGB albedo (gamma-encoded, each channel in [0, 1]).
 
-        Uses colour-science's Mallett & Yuksel (2019) spectral primary decomposition: the
+        Uses Mallett & Yuksel (2019)'s spectral primary decomposition (the basis colour-science
+        ships, bundled with lumijax so no colour import is needed): the
         spectrum is ``r·B_r + g·B_g + b·B_b`` for the *linear* sRGB channels and three basis
         spectra that are each within [0, 1] and sum to 1 at every wavelength. So the reflectance
         is bounded by the largest linear channel (a grey gives a flat spectrum equal to its
         linear value) and reproduces the sRGB colour under D65. Albedos that recover a
         reflectance reaching 1 (white ``(1, 1, 1)``) are refused.
         """
-        import colour
-        from colour.recovery import (
-            MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019,
-            RGB_to_sd_Mallett2019,
-        )
+        # the basis ships with lumijax (bitwise colour-science's): importing colour costs seconds
+        from ._shipped import mallett2019_basis, srgb_decode
 
         try:
             c = np.array(rgb, dtype=np.float64)
@@ -346,9 +344,10 @@ class Spectrum:
         if np.any(c < 0.0) or np.any(c > 1.0):
             hint = " (8-bit values? divide by 255)" if np.max(c) > 1.0 else ""
             raise SpectrumError(f"sRGB albedo channels must be in [0, 1], got {rgb!r}{hint}")
-        linear = np.asarray(colour.cctf_decoding(c, function="sRGB"), dtype=np.float64)
-        sd = RGB_to_sd_Mallett2019(linear, MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019)
-        values = np.clip(np.asarray(sd.values, dtype=np.float64), 0.0, None)
+        linear = srgb_decode(c)
+        wl, basis = mallett2019_basis()
+        # what colour.recovery.RGB_to_sd_Mallett2019 computes: RGB · basisᵀ per wavelength
+        values = np.clip(np.dot(linear, np.transpose(basis)), 0.0, None)
         label = "sRGB({:.4g}, {:.4g}, {:.4g})".format(*c) if name is None else name
         if np.max(values) >= 1.0:
             raise SpectrumError(
@@ -358,7 +357,7 @@ class Spectrum:
                 key=f"spectrum {label!r}",
             )
         return cls(
-            np.asarray(sd.wavelengths, dtype=np.float64),
+            wl.copy(),
             values,
             "reflectance",
             label,
