@@ -28,10 +28,8 @@ traced code or an upgrade changes every key, and old entries are only read by th
 from __future__ import annotations
 
 import hashlib
-import os
 import re
 import sys
-import tempfile
 import threading
 import warnings
 from collections.abc import Callable
@@ -40,7 +38,6 @@ from pathlib import Path
 __all__ = ["MAGIC", "call", "export_dir", "source_digest"]
 
 MAGIC = b"lumijax-export-1\n"
-_DIGEST = 32
 _lock = threading.Lock()
 _warned: set[str] = set()
 _sources: dict[tuple[str, ...], str] = {}
@@ -133,13 +130,10 @@ def _read(file: Path):
         _warn("read", f"exported program {file} is unreadable ({type(e).__name__}): ignored and "
               "rebuilt")
         return None
-    head = len(MAGIC) + _DIGEST
-    payload = data[head:]
-    if not data.startswith(MAGIC) or len(data) < head:
-        why = "not one lumijax wrote (foreign or truncated)"
-    elif hashlib.blake2b(payload, digest_size=_DIGEST).digest() != data[len(MAGIC):head]:
-        why = "corrupted (its digest does not match)"
-    else:
+    from ._jit_cache import unseal
+
+    payload, why = unseal(data, MAGIC)
+    if payload is not None:
         try:
             return export.deserialize(bytearray(payload))
         except Exception as e:  # a payload from another JAX that passed the digest
@@ -150,24 +144,14 @@ def _read(file: Path):
 
 
 def _write(folder: Path, file: Path, payload: bytes) -> None:
-    data = MAGIC + hashlib.blake2b(payload, digest_size=_DIGEST).digest() + payload
-    tmp = None
+    from ._jit_cache import write_sealed
+
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{file.name[:20]}-", suffix=".tmp")
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, file)
-        tmp = None
+        write_sealed(file, payload, MAGIC)
     except OSError as e:
         _warn("write", f"cannot write exported programs in {folder} ({type(e).__name__}: "
               f"{e.strerror or e}); each run traces its kernels again")
-    finally:
-        if tmp is not None:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
 
 
 def _export(flat: Callable, leaves):

@@ -18,6 +18,7 @@ set ``jax_compilation_cache_dir`` (``JAX_COMPILATION_CACHE_DIR``) keeps theirs.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import tempfile
@@ -39,6 +40,39 @@ ms; a study's entries take ~1.5 MB (212 files for two small rooms)."""
 
 MAGIC = b"lumijax-jax-cache-1\n"
 _DIGEST = 32
+
+
+def seal(payload: bytes, magic: bytes = MAGIC) -> bytes:
+    """``magic + blake2b(payload) + payload``: what a cache entry holds on disk."""
+    return magic + hashlib.blake2b(payload, digest_size=_DIGEST).digest() + payload
+
+
+def unseal(data: bytes, magic: bytes = MAGIC) -> tuple[bytes | None, str]:
+    """The payload of a sealed entry, or None and why it is not one (foreign, truncated,
+    corrupted)."""
+    head = len(magic) + _DIGEST
+    if not data.startswith(magic) or len(data) < head:
+        return None, "not one lumijax wrote (foreign or truncated)"
+    payload = data[head:]
+    if hashlib.blake2b(payload, digest_size=_DIGEST).digest() != data[len(magic):head]:
+        return None, "corrupted (its digest does not match)"
+    return payload, ""
+
+
+def write_sealed(file: Path, payload: bytes, magic: bytes = MAGIC) -> None:
+    """Write a sealed entry through a temporary file in its folder and one rename, so concurrent
+    runs never see half an entry; raises ``OSError`` (the callers warn and carry on)."""
+    tmp = None
+    try:
+        fd, tmp = tempfile.mkstemp(dir=file.parent, prefix=f".{file.name[:20]}-", suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            f.write(seal(payload, magic))
+        os.replace(tmp, file)
+        tmp = None
+    finally:
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
 _OFF = {"", "0", "off", "false", "no"}
 
 _lock = threading.Lock()
@@ -120,36 +154,19 @@ class VerifiedFileCache(_cache_base()):
         except OSError as e:
             self._corrupt(file, f"unreadable ({type(e).__name__})")
             return None
-        head = len(MAGIC) + _DIGEST
-        if not data.startswith(MAGIC) or len(data) < head:
-            self._corrupt(file, "not one lumijax wrote (foreign or truncated)")
-            return None
-        payload = data[head:]
-        if hashlib.blake2b(payload, digest_size=_DIGEST).digest() != data[len(MAGIC):head]:
-            self._corrupt(file, "corrupted (its digest does not match)")
-            return None
+        payload, why = unseal(data)
+        if payload is None:
+            self._corrupt(file, why)
         return payload
 
     def put(self, key: str, value: bytes) -> None:
-        data = MAGIC + hashlib.blake2b(value, digest_size=_DIGEST).digest() + value
-        tmp = None
         try:
-            fd, tmp = tempfile.mkstemp(dir=self._path, prefix=f".{key[:16]}-", suffix=".tmp")
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-            os.replace(tmp, self._file(key))
-            tmp = None
+            write_sealed(self._file(key), value)
         except OSError as e:
             if not self._warned:
                 self._warned = True
                 _warn(f"cannot write the compilation cache in {self._path} "
                       f"({type(e).__name__}: {e.strerror or e}); compiled kernels are not kept")
-        finally:
-            if tmp is not None:
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
 
     def clear(self) -> None:
         for f in self._path.glob("*.ljx"):
