@@ -152,8 +152,14 @@ class GlareModel(eqx.Module):
         """The ratings at ``design``'s aims and levels for any dimmer vector (a
         :class:`DimmerGlare`: each network's terms summed once, at dimmer 1)."""
         ones = design.replace(dimmers=np.ones(len(design.networks)))
-        ugr_terms, veil_terms = _contributions(self, ones)  # shared with contributions()
-        return DimmerGlare(self, *_per_network(self, ugr_terms, veil_terms))
+        # in the model's precision, not the caller's: the optimiser builds its constraints
+        # under x64 (float64_scope), the results rate glare outside it, and JAX keys a
+        # compiled program on that flag, so the same terms compiled twice (~4 s of the
+        # demo's first run, contended). The terms are the model's dtype (float32 here)
+        # either way; only the aim's rotation was figured in float64 before rounding.
+        with jax.enable_x64(self.background.dtype == np.float64):
+            ugr_terms, veil_terms = _contributions(self, ones)  # shared with contributions()
+            return DimmerGlare(self, *_per_network(self, ugr_terms, veil_terms))
 
     def _source_network(self) -> Int[Array, " src"]:
         """Each source's network, in ``names`` order (as ``contributions`` gives them)."""
