@@ -18,7 +18,14 @@ from lumijax.optimise._constraints import GridAverage, GridMinimum, GridUniformi
 from lumijax.optimise._standard import _power_model
 
 
-def _problem(study, results, variables):
+def _jacobian_constraints(c, stats):
+    return (c(GridAverage, 30.0), c(GridMinimum, 5.0), c(GridUniformity, 0.2),
+            c(GridAverage, 80.0, sense=-1))
+
+
+def _problem(study, results, variables, cons_of=_jacobian_constraints):
+    """The facade's design problem over ``variables`` (aims ±8°), its constraints made by
+    ``cons_of(c, stats of the 'wall' grid)`` with ``c(cls, bound, sense)`` over that grid."""
     ocfg = _optimise._settings(study, dict(objective="power", variables=variables,
                                            tilt_range_deg=(-8.0, 8.0),
                                            pan_range_deg=(-8.0, 8.0)))
@@ -29,10 +36,9 @@ def _problem(study, results, variables):
         return cls(label=cls.__name__, key="k", unit="", sense=sense, bound=jnp.asarray(bound),
                    ref=abs(bound), start=0, stop=n)
 
-    power = _power_model(setup, study.scene)
-    cons = (c(GridAverage, 30.0), c(GridMinimum, 5.0), c(GridUniformity, 0.2),
-            c(GridAverage, 80.0, sense=-1))
-    return DesignProblem(setup.model, power, cons, objective_scale=80.0), setup.params
+    cons = cons_of(c, results.grids["wall"].stats)
+    return (DesignProblem(setup.model, _power_model(setup, study.scene), cons,
+                          objective_scale=80.0), setup.params)
 
 
 @pytest.mark.parametrize("variables", [["dimmers", "aims", "levels"]])

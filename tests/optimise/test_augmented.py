@@ -12,7 +12,6 @@ import pytest
 
 from lumijax.errors import ConfigError
 from lumijax.lighting._solution import float64_scope
-from lumijax.optimise import _optimise
 from lumijax.optimise._augmented import (
     AUTO_SLSQP_VARIABLES,
     CONSTRAINED_METHODS,
@@ -34,8 +33,8 @@ from lumijax.optimise._constraints import (
     PowerModel,
 )
 from lumijax.optimise._models import DimmerLight
-from lumijax.optimise._standard import _power_model
 
+from .test_aim_jacobian import _problem
 from .test_constrained import POWER, _c, _light, _lp
 
 jax.config.update("jax_enable_x64", True)
@@ -127,19 +126,7 @@ def test_registry_and_the_automatic_choice():
 
 
 def _aim_problem(study, results, cons_of):
-    ocfg = _optimise._settings(study, dict(objective="power", variables=["dimmers", "aims"],
-                                           tilt_range_deg=(-8.0, 8.0),
-                                           pan_range_deg=(-8.0, 8.0)))
-    setup = _optimise._setup(study, results, ocfg)
-    n = len(study.scene.grids[0])
-
-    def c(cls, bound, sense=1):
-        return cls(label=cls.__name__, key="k", unit="", sense=sense, bound=jnp.asarray(bound),
-                   ref=abs(bound), start=0, stop=n)
-
-    stats = results.grids["wall"].stats
-    return DesignProblem(setup.model, _power_model(setup, study.scene), cons_of(c, stats),
-                         objective_scale=80.0), setup.params
+    return _problem(study, results, ["dimmers", "aims"], cons_of)
 
 
 def _AIM_CONSTRAINTS(c, s):
