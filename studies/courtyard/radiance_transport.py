@@ -80,6 +80,21 @@ def quarter_study(bays: int, facades: str):
     return study
 
 
+def _quarter_mesh(args):
+    """The quarter's study, its triangles (float64), their total area (m²) and the patches
+    of the solve stage's mesh (``args.patches``), which every later stage must reproduce."""
+    from lumijax.lighting._pipeline import auto_patch_size
+    from lumijax.radiosity import mesh_patches
+
+    study = quarter_study(args.bays, args.facades)
+    tri = np.asarray(study.scene.triangles.vertices, np.float64)
+    area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                      axis=1).sum())
+    p = mesh_patches(tri, group=study.scene.triangles.group,
+                     patch_size=auto_patch_size(area, args.patches))
+    return study, tri, area, p
+
+
 def _rss_gib() -> float:
     import resource
 
@@ -90,13 +105,11 @@ def solve(args) -> None:
     import jax.numpy as jnp
 
     from lumijax.direct import direct_illuminance
-    from lumijax.lighting._pipeline import auto_patch_size
     from lumijax.radiosity import (
         SampledSettings,
         build_operator,
         build_sampled,
         load_operator,
-        mesh_patches,
         partition,
         save_operator,
         solve_radiosity,
@@ -105,13 +118,8 @@ def solve(args) -> None:
 
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
-    study = quarter_study(args.bays, args.facades)
-    tri = np.asarray(study.scene.triangles.vertices, np.float64)
-    group = study.scene.triangles.group
-    area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
-                                      axis=1).sum())
+    study, tri, area, p = _quarter_mesh(args)
     caster = RayCaster(tri)
-    p = mesh_patches(tri, group=group, patch_size=auto_patch_size(area, args.patches))
     print(f"{len(tri):,} triangles, {area:,.0f} m², {p.n:,} patches", flush=True)
     geo = work / "patches.npz"
     if geo.exists():
@@ -250,19 +258,13 @@ def rows(args) -> None:
     symmetrised), so the comparison does not wait for the whole P² operator. It differs from a
     built operator only by the partition's culls and the low-rank far field (tolerance 10⁻³)."""
     from lumijax.kernels import triangle_spread
-    from lumijax.lighting._pipeline import auto_patch_size
-    from lumijax.radiosity import FormFactorSettings, mesh_patches, partition
+    from lumijax.radiosity import FormFactorSettings, partition
     from lumijax.radiosity._build import _pair_block
     from lumijax.scene._raycast import RayCaster
 
     work = Path(args.work)
     g = np.load(work / "patches.npz")
-    study = quarter_study(args.bays, args.facades)
-    tri = np.asarray(study.scene.triangles.vertices, np.float64)
-    area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
-                                      axis=1).sum())
-    p = mesh_patches(tri, group=study.scene.triangles.group,
-                     patch_size=auto_patch_size(area, args.patches))
+    study, tri, area, p = _quarter_mesh(args)
     assert np.array_equal(p.centroid, g["centroid"]), "not the mesh of the solve stage"
     b0 = g["rho"] * g["e_dir"]
     caster = RayCaster(tri)
@@ -305,19 +307,13 @@ def culls(args) -> None:
     """How much of the receivers' first bounce the partition's occlusion cull drops, at its
     default and at stricter settings (the blocks do not depend on the cull, so ``rows``'s
     per-block light is reused): ``--cull samples,min_facing`` pairs."""
-    from lumijax.lighting._pipeline import auto_patch_size
-    from lumijax.radiosity import mesh_patches, partition
+    from lumijax.radiosity import partition
     from lumijax.scene._raycast import RayCaster
 
     work = Path(args.work)
     r = np.load(work / "rows.npz")
     recv, by_block, first = r["receivers"], r["by_block"], r["first"]
-    study = quarter_study(args.bays, args.facades)
-    tri = np.asarray(study.scene.triangles.vertices, np.float64)
-    area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
-                                      axis=1).sum())
-    p = mesh_patches(tri, group=study.scene.triangles.group,
-                     patch_size=auto_patch_size(area, args.patches))
+    study, tri, area, p = _quarter_mesh(args)
     caster = RayCaster(tri)
     print("| samples | min_facing | pairs kept | culled (occlusion) | rays | receivers' first "
           "bounce lost | receivers losing > 10 % |")
@@ -358,12 +354,8 @@ def fine(args) -> None:
 
     work = Path(args.work)
     g = np.load(work / "patches.npz")
-    study = quarter_study(args.bays, args.facades)
-    tri = np.asarray(study.scene.triangles.vertices, np.float64)
+    study, tri, area, coarse = _quarter_mesh(args)
     group = study.scene.triangles.group
-    area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
-                                      axis=1).sum())
-    coarse = mesh_patches(tri, group=group, patch_size=auto_patch_size(area, args.patches))
     assert np.array_equal(coarse.centroid, g["centroid"]), "not the mesh of the solve stage"
     fp = mesh_patches(tri, group=group, patch_size=auto_patch_size(area, args.fine_patches))
     parent = PatchLocator(coarse, tri)(fp.centroid, np.asarray(fp.source_triangle))
