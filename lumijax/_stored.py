@@ -2,14 +2,16 @@
 
 Light adds linearly over networks, so a run that differs from an earlier one only in
 ``[networks.NAME] dimmer`` values has nothing to compute: each grid's per-network illuminance
-at dimmer 1 is read back and superposed,
-``E = Σ αₖ Eₖ``. ``lumijax run --quick`` does that without building the scene or importing
-JAX (docs/results.md, "Dimmer-only reruns").
+(and XYZ) at dimmer 1 is read back and superposed, ``E = Σ αₖ Eₖ``, and so are the patches'
+arrays of patches.vtp. A numbers run — ``lumijax run --quick``, or ``lumijax run --no-images
+--no-report`` — does that without building the scene or importing JAX (docs/results.md,
+"Dimmer-only reruns"); a run that draws images or a report computes (and stores).
 
 The key (:func:`solution_key`) is a SHA-256 of the validated config with every network's
 ``dimmer`` removed (so any other change — geometry, a material, a luminaire, a grid, a solver
 setting — is a new key), the bytes of every file the config names, the run's options
-(``--no-shadows``), the source of every lumijax module and the versions of JAX, jaxlib and
+(``--no-shadows``; ``--quick`` or full: a quick solution has no patches and one wavelength),
+the source of every lumijax module and the versions of JAX, jaxlib and
 numpy. A solution is one ``solution-<key>.npz`` file in the study's operator-cache folder,
 written to a temporary file and renamed into place (a reader sees a whole file or none); its
 digest is checked on reading, and a file that fails (truncated, corrupted, another key's) is
@@ -50,6 +52,8 @@ DIMMER_ONLY_KEYS = ("illuminance_lux", "stats", "direct_lux", "xyz", "cct_k")
 #: glare or parse the command line; a study with a fit or observers is never stored): their
 #: edits keep the key.
 _NOT_NUMBERS = ("cli.py", "__main__.py", "report", "view", "optimise", "glare")
+#: ... except the one module of those that makes stored arrays (patches.vtp's).
+_NUMBERS_IN_REPORT = ("report/_vtk.py",)
 
 
 @functools.cache
@@ -61,7 +65,7 @@ def _code_digest() -> str:
     root = Path(__file__).resolve().parent
     for path in sorted(root.rglob("*.py")):
         rel = path.relative_to(root)
-        if rel.parts[0] in _NOT_NUMBERS:
+        if rel.parts[0] in _NOT_NUMBERS and rel.as_posix() not in _NUMBERS_IN_REPORT:
             continue
         h.update(str(rel).encode() + b"\0" + path.read_bytes())
     for dist in ("jax", "jaxlib", "numpy"):
@@ -90,18 +94,22 @@ def _keyed(value: Any, h) -> Any:
     return repr(value)
 
 
-def solution_key(config, *, shadows: bool = True) -> str:
+def solution_key(config, *, shadows: bool = True, full: bool = False) -> str:
     """SHA-256 hex of everything that decides a study's per-network light except its dimmers.
 
     ``config``: the validated :class:`~lumijax.config.StudyConfig` as the run uses it (after
-    ``--quick``'s change to ``[solver]``); ``shadows``: the run's ``--no-shadows`` negated.
+    ``--quick``'s change to ``[solver]``); ``shadows``: the run's ``--no-shadows`` negated;
+    ``full``: a full numbers run's solution (with patches.vtp's arrays), which a ``--quick``
+    run's (grids only) never stands for, nor the other way round, even where the config is
+    the same (a study that sets ``spectral_samples = 0`` itself).
     """
     dump = config.model_dump(mode="python")
     for net in dump.get("networks", {}).values():
         net.pop("dimmer", None)  # the one thing a rerun may change
     h = hashlib.sha256(_code_digest().encode())
     doc = _keyed(dump, h)
-    h.update(json.dumps({"config": doc, "shadows": bool(shadows)}, sort_keys=True).encode())
+    h.update(json.dumps({"config": doc, "shadows": bool(shadows),
+                         "mode": "full" if full else "quick"}, sort_keys=True).encode())
     return h.hexdigest()
 
 
@@ -112,11 +120,13 @@ def solution_path(cache_dir: str | Path, key: str) -> Path:
 
 @dataclass(frozen=True, eq=False)
 class StoredSolution:
-    """A stored solution: results.json without its dimmer-dependent entries, and each grid's
-    per-network arrays at dimmer 1."""
+    """A stored solution: results.json without its dimmer-dependent entries, each grid's
+    per-network arrays at dimmer 1 and, for a full run that wrote patches.vtp, that file's
+    arrays (``lumijax.report._vtk.patch_arrays``; None otherwise)."""
 
     document: dict
     grids: dict[str, dict[str, Any]]
+    patches: dict[str, np.ndarray] | None = None
 
     @property
     def networks(self) -> tuple[str, ...]:
@@ -153,10 +163,14 @@ _GRID_ARRAYS = ("points", "normals", "by_network_lux", "direct_by_network_lux",
                 "xyz_by_network")
 
 
-def store_solution(results, cache_dir: str | Path, key: str) -> Path | None:
+def store_solution(results, cache_dir: str | Path, key: str,
+                   patches: dict[str, np.ndarray] | None = None) -> Path | None:
     """Write ``results``' solution under ``key`` (atomically); warn and return None where the
-    folder cannot be written. ``results`` must be at the config's design, not optimised."""
+    folder cannot be written. ``results`` must be at the config's design, not optimised;
+    ``patches``: patches.vtp's arrays (``patch_arrays``), kept as they are (their dtypes)."""
     arrays: dict[str, np.ndarray] = {}
+    for name, a in (patches or {}).items():
+        arrays[f"p.{name}"] = np.asarray(a)
     grids = {}
     for i, (name, g) in enumerate(results.grids.items()):
         for a in _GRID_ARRAYS:
@@ -170,7 +184,8 @@ def store_solution(results, cache_dir: str | Path, key: str) -> Path | None:
         for k in (*DIMMER_ONLY_KEYS, "points", "normals", "by_network_lux", "shape",
                   "target_lux"):
             g.pop(k, None)
-    meta = {"format": FORMAT, "key": key, "document": doc, "grids": grids}
+    meta = {"format": FORMAT, "key": key, "document": doc, "grids": grids,
+            "patches": None if patches is None else sorted(patches)}
     arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
     buf = io.BytesIO()
     np.savez(buf, **arrays)
@@ -207,13 +222,17 @@ def load_solution(cache_dir: str | Path, key: str) -> StoredSolution | None:
         return _bad(path, f"unreadable ({type(e).__name__})")
     if meta.get("format") != FORMAT or meta.get("key") != key:
         return _bad(path, "not the solution of this study")
+    if any(f"p.{n}" not in arrays for n in meta.get("patches") or ()):
+        return _bad(path, "missing its patches' arrays")
     grids = {}
     for name, g in meta["grids"].items():
         i = g["index"]
         grids[name] = {a: arrays.get(f"g{i}.{a}") for a in _GRID_ARRAYS}
         grids[name].update(shape=None if g["shape"] is None else tuple(g["shape"]),
                            target_lux=g["target_lux"])
-    return StoredSolution(meta["document"], grids)
+    names = meta.get("patches")
+    patches = None if names is None else {n: arrays[f"p.{n}"] for n in names}
+    return StoredSolution(meta["document"], grids, patches)
 
 
 def _bad(path: Path, why: str) -> StoredSolution | None:

@@ -153,8 +153,11 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
             cfg = _quick_config(cfg)
         config_s = time.perf_counter() - t
         kept = _kept_solution(cfg, cache_dir, quick=quick, optimise=optimise, shadows=shadows)
-        if kept is not None and _rerun(kept, cfg, rs, out, config_s=config_s, startup=startup,
-                                       t0=t0, timings=timings, console=console):
+        # numbers only (results.json, CSV, patches.vtp) can come from the store; images and
+        # the report need the scene, so such a run computes (and stores for the next one)
+        if (kept is not None and not images and not report
+                and _rerun(kept, cfg, rs, out, config_s=config_s, startup=startup, t0=t0,
+                           timings=timings, console=console)):
             return 0
         _compilation_cache()
         from ._study import compute, study_of
@@ -167,10 +170,15 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
             results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir,
                               scheduler=scheduler)
         marks["compute"] = time.perf_counter() - t
+        stored_patches = None
         if kept is not None:  # the next run that changes only dimmers reads this back
             from ._stored import store_solution
 
-            store_solution(results, *kept)
+            if not quick and results.lighting.coarse.patches is not None:
+                from .report._vtk import patch_arrays
+
+                stored_patches = patch_arrays(results.lighting)
+            store_solution(results, *kept, patches=stored_patches)
         stages = dict(results.timing_s)  # the compute's (a fit that re-aims computes again)
         if optimise and study.config.optimise is not None:
             from .optimise import optimise as fit
@@ -179,7 +187,8 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
             results = fit(study, results, cache_dir=cache_dir).results
             marks["optimise"] = time.perf_counter() - t
         t = time.perf_counter()
-        paths = write_results(results, rs, images=images, timings=marks, patches=not quick)
+        paths = write_results(results, rs, images=images, timings=marks, patches=not quick,
+                              stored_patches=stored_patches)
         marks["write"] = time.perf_counter() - t
         _summary_table(results.study, results.grids, console)
         if results.optimisation is not None:
@@ -211,11 +220,12 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
 
 def _kept_solution(cfg, cache_dir: Path | None, *, quick: bool, optimise: bool,
                    shadows: bool) -> tuple[Path, str] | None:
-    """``(cache folder, key)`` of the study's stored solution (``lumijax._stored``) for a
-    ``--quick`` run (numbers only: results.json and CSV) that computes nothing but a
-    superposition of dimmers (no fit, no glare, no compliance verdict) with ``[solver]
-    cache`` on; else None."""
-    if (not quick or not cfg.solver.cache or cfg.observers or cfg.compliance is not None
+    """``(cache folder, key)`` of the study's stored solution (``lumijax._stored``) for a run
+    whose numbers are nothing but a superposition of dimmers (no fit, no glare, no compliance
+    verdict: those need the scene and JAX) with ``[solver] cache`` on; else None. A
+    ``--quick`` run's solution (grids only) and a full run's (grids and patches.vtp's arrays,
+    every wavelength) have different keys."""
+    if (not cfg.solver.cache or cfg.observers or cfg.compliance is not None
             or (optimise and cfg.optimise is not None)):
         return None
     folder = cache_dir if cache_dir is not None else (
@@ -224,14 +234,15 @@ def _kept_solution(cfg, cache_dir: Path | None, *, quick: bool, optimise: bool,
         return None
     from ._stored import solution_key
 
-    return Path(folder), solution_key(cfg, shadows=shadows)
+    return Path(folder), solution_key(cfg, shadows=shadows, full=not quick)
 
 
 def _rerun(kept: tuple[Path, str], cfg, rs, out: Path, *, config_s: float,
            startup: float | None, t0: float, timings: bool, console) -> bool:
     """A dimmer-only rerun: the stored solution superposed at the config's dimmers and written
-    (results.json and the grids' CSV, as ``--quick`` writes them), with no scene, no solve and
-    no JAX; False when no solution is stored under the key (the caller computes)."""
+    (results.json, the grids' CSV and, for a full run's solution, patches.vtp: what a numbers
+    run writes), with no scene, no solve and no JAX; False when no solution is stored under
+    the key (the caller computes)."""
     from ._stored import load_solution
     from .report._write import write_stored
 
@@ -247,7 +258,7 @@ def _rerun(kept: tuple[Path, str], cfg, rs, out: Path, *, config_s: float,
         "total": superpose_s})
     document["solver"] = {**document["solver"], "solution_reused": True}
     t = time.perf_counter()
-    paths = write_stored(document, grids, rs)
+    paths = write_stored(document, grids, rs, patches=stored.patches, dimmers=dimmers)
     _summary_table(document["study"], grids, console)
     rs.commit()
     marks = {"compute": superpose_s, "write": time.perf_counter() - t}

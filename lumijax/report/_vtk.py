@@ -16,7 +16,8 @@ import numpy as np
 
 from .._atomic import atomic_path
 
-__all__ = ["write_patches_vtp", "triangles_vtp"]
+__all__ = ["write_patches_vtp", "patch_arrays", "write_stored_patches_vtp",
+           "triangles_vtp"]
 
 
 def write_patches_vtp(lighting, dimmers, path: str | Path) -> Path:
@@ -29,30 +30,68 @@ def write_patches_vtp(lighting, dimmers, path: str | Path) -> Path:
     (CIE 1931 XYZ of the radiosity, Y = ``radiosity_lm_m2``), ``chromaticity_xy`` and ``srgb``
     (display colour, exposed so the 99th percentile of Y is white).
     """
-    p = lighting.display.patches  # the fine patches of a two-level solve
-    verts = p.vertices.reshape(-1, 3)
-    cells: dict[str, np.ndarray] = {}
     d = np.asarray(dimmers, np.float64)
-    b = lighting.display_radiosity_at(d)
+    arrays = patch_arrays(lighting, per_network_illuminance=False)
+    return _write(arrays, d, lighting.display_patch_illuminance_at(d), path)
+
+
+def patch_arrays(lighting, *, per_network_illuminance: bool = True) -> dict[str, np.ndarray]:
+    """What patches.vtp is made of, none of it at a dimmer: ``vertices`` (3n, 3) m,
+    ``radiosity`` (net, n) lm/m² and ``direct`` (net, n) lx at dimmer 1, ``reflectance``,
+    ``material``, ``networks`` (names), ``xyz`` (net, 3, n) after a spectral solve and, with
+    ``per_network_illuminance``, ``illuminance`` (net, n) lx: each network's irradiance at
+    dimmer 1, from one operator product per network (the shape of the product at the dimmers,
+    so nothing new compiles). A dimmer-only rerun (``lumijax._stored``) writes the file from
+    these with :func:`write_stored_patches_vtp`, with no JAX."""
+    p = lighting.display.patches  # the fine patches of a two-level solve
+    k = len(lighting.scene.network_names)
+    arrays = {
+        "vertices": np.asarray(p.vertices).reshape(-1, 3),
+        "radiosity": np.asarray(lighting.display.radiosity).reshape(k, -1),
+        "direct": np.asarray(lighting.display.patch_direct).reshape(k, -1),
+        "reflectance": np.asarray(lighting.display_rho),
+        "material": np.asarray(p.material, np.int32),
+        "networks": np.asarray(lighting.scene.network_names, dtype=str),
+    }
+    if lighting.display.radiosity_xyz is not None:
+        arrays["xyz"] = np.asarray(lighting.display.radiosity_xyz)
+    if per_network_illuminance:
+        rows = [np.asarray(lighting.display_patch_illuminance_at(e)) for e in np.eye(k)]
+        arrays["illuminance"] = np.stack(rows) if rows else np.zeros((0, p.n))
+    return arrays
+
+
+def write_stored_patches_vtp(arrays: dict[str, np.ndarray], dimmers,
+                             path: str | Path) -> Path:
+    """Write patches.vtp from :func:`patch_arrays` (with its ``illuminance``) at ``dimmers``:
+    every cell array is a superposition of the per-network arrays, the irradiance included."""
+    d = np.asarray(dimmers, np.float64)
+    return _write(arrays, d, d @ arrays["illuminance"], path)
+
+
+def _write(arrays: dict[str, np.ndarray], d: np.ndarray, illuminance: np.ndarray,
+           path: str | Path) -> Path:
+    cells: dict[str, np.ndarray] = {}
+    b = d @ arrays["radiosity"]
     cells["radiosity_lm_m2"] = b
     cells["luminance_cd_m2"] = b / np.pi
-    cells["illuminance_lux"] = lighting.display_patch_illuminance_at(d)
-    cells["direct_lux"] = d @ lighting.display.patch_direct
-    cells["reflectance"] = lighting.display_rho
-    cells["material"] = np.asarray(p.material, np.int32)
-    for name, row in zip(lighting.scene.network_names, lighting.display.radiosity, strict=True):
+    cells["illuminance_lux"] = illuminance
+    cells["direct_lux"] = d @ arrays["direct"]
+    cells["reflectance"] = arrays["reflectance"]
+    cells["material"] = arrays["material"]
+    for name, row in zip(arrays["networks"], arrays["radiosity"], strict=True):
         cells[f"radiosity_lm_m2:{name}"] = row
-    if lighting.display.radiosity_xyz is not None:
+    if "xyz" in arrays:
         from ..spectral import xyz_to_chromaticity, xyz_to_srgb
 
-        xyz = np.einsum("k,kcp->pc", d, lighting.display.radiosity_xyz)
+        xyz = np.einsum("k,kcp->pc", d, arrays["xyz"])
         cells["xyz"] = xyz
         cells["chromaticity_xy"] = xyz_to_chromaticity(xyz)
         # display colour of the surfaces' own colour: luminance-normalised, so that an image
         # shows hue and saturation; exposure and tone mapping belong to the renderer
         peak = float(np.percentile(xyz[:, 1], 99)) if len(xyz) else 1.0
         cells["srgb"] = xyz_to_srgb(xyz / max(peak, 1e-300))
-    text = triangles_vtp(verts, cells)
+    text = triangles_vtp(arrays["vertices"], cells)
     with atomic_path(path, what="patch file", suffix=".vtp") as tmp:
         Path(tmp).write_bytes(text)
     return Path(path)

@@ -187,8 +187,8 @@ def _write_text(staging: Path, rel: str, text: str) -> None:
 
 
 def write_results(results: Results, out: str | Path | ResultSet, *, images: bool = True,
-                  timings: dict[str, float] | None = None,
-                  patches: bool = True) -> dict[str, Path]:
+                  timings: dict[str, float] | None = None, patches: bool = True,
+                  stored_patches: dict[str, np.ndarray] | None = None) -> dict[str, Path]:
     """Write results as one set and return the paths (in the output folder) of the files.
 
     ``out``: a folder (created if needed; the set is swapped in before this returns), or an open
@@ -202,11 +202,14 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
 
     ``timings``: a dict that gets ``images``, the seconds spent drawing them (``lumijax run
     --timings``). ``patches=False``: no ``patches.vtp`` (``lumijax run --quick``: the numbers
-    the iterate loop reads, as a dimmer-only rerun writes them).
+    the iterate loop reads, as a dimmer-only rerun writes them). ``stored_patches``: the
+    arrays of patches.vtp kept for dimmer-only reruns (``report._vtk.patch_arrays``): the file
+    is written from them, by the code a rerun writes it with, so the two are the same bytes.
     """
     if not isinstance(out, ResultSet):
         with ResultSet(out) as rs:
-            paths = write_results(results, rs, images=images, timings=timings, patches=patches)
+            paths = write_results(results, rs, images=images, timings=timings, patches=patches,
+                                  stored_patches=stored_patches)
             rs.commit()
         return paths
     rs = out
@@ -243,23 +246,30 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         if timings is not None:
             timings["images"] = time.perf_counter() - t_images
         lighting = results.lighting
-        if patches and lighting is not None and lighting.coarse.patches is not None:
+        if patches and stored_patches is not None:
+            _write_stored_vtp(staging, stored_patches, results.design.dimmers, written)
+        elif patches and lighting is not None and lighting.coarse.patches is not None:
             _write_vtp(staging, lighting, results.design.dimmers, written)
     except OSError as e:
         raise OutputError(f"cannot write results: {e.strerror or e}", file=out_dir) from None
     return _published(staging, out_dir, written)
 
 
-def write_stored(document: dict, grids: dict, rs: ResultSet) -> dict[str, Path]:
+def write_stored(document: dict, grids: dict, rs: ResultSet,
+                 patches: dict[str, np.ndarray] | None = None,
+                 dimmers=None) -> dict[str, Path]:
     """Stage a dimmer-only rerun's numbers in ``rs`` (``lumijax._stored``): ``document`` as
-    results.json and each :class:`~lumijax.results.GridResult` of ``grids`` as its CSV — what
-    :func:`write_results` writes with ``images=False, patches=False``, by the same code."""
+    results.json, each :class:`~lumijax.results.GridResult` of ``grids`` as its CSV and, given
+    a full run's ``patches`` arrays, patches.vtp at ``dimmers`` — what :func:`write_results`
+    writes with ``images=False`` (and ``patches=False`` without them), by the same code."""
     if rs.staging is None or rs.committed:
         raise OutputError("this result set is not open", file=rs.out)
     written: list[str] = []
     try:
         _write_document(rs.staging, document, written)
         _write_grids(rs.staging, grids, written)
+        if patches is not None:
+            _write_stored_vtp(rs.staging, patches, dimmers, written)
     except OSError as e:
         raise OutputError(f"cannot write results: {e.strerror or e}", file=rs.out) from None
     return _published(rs.staging, rs.out, written)
@@ -281,6 +291,14 @@ def _write_vtp(staging: Path, lighting, dimmers, written: list[str]) -> None:
     from ._vtk import write_patches_vtp
 
     write_patches_vtp(lighting, dimmers, staging / "patches.vtp")
+    written.append("patches.vtp")
+    _step("wrote patches.vtp")
+
+
+def _write_stored_vtp(staging: Path, patches: dict, dimmers, written: list[str]) -> None:
+    from ._vtk import write_stored_patches_vtp
+
+    write_stored_patches_vtp(patches, dimmers, staging / "patches.vtp")
     written.append("patches.vtp")
     _step("wrote patches.vtp")
 
