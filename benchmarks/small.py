@@ -17,7 +17,11 @@ timed end to end (interpreter start, import, load, compute, results.json), in th
   very first run after installing;
 * **cold**: a new study (no operator cache) with the compilation cache as an earlier,
   *different* study left it (a 3 × 3 × 2.5 m room run first into the same cache folder);
-* **warm**: the same study again (operator cache present).
+* **warm**: the same study again (operator cache present, and the first run's stored
+  solution: a numbers run of an unchanged study is answered from it, with no JAX;
+  docs/results.md, "Dimmer-only reruns");
+* **moved**: one luminaire moved 0.1 m in the study file, run again: the operator comes from
+  the cache, the light is computed again in full (direct, solve, gather).
 
 Then the iterate loop: ``lumijax run --quick`` (the photometric solve, numbers only; "quick
 s"), one dimmer changed in the study file and ``lumijax run --quick`` again ("dimmer s", end to
@@ -340,10 +344,10 @@ def run_case(case: Case, work: Path, smoke: bool, ref_size: float) -> dict:
     study = write(folder / "study", text)
     row["cold_s"], lux, cold = lumijax_run(study, folder / "study" / "out", shared)
     row["warm_s"], _, warm = lumijax_run(study, folder / "study" / "out", shared)
+    row["warm_reused"] = bool(warm["solver"].get("solution_reused"))
     row["patches"] = cold["counts"].get("patches")
     row["columns_solved"] = cold["solver"].get("columns_solved")
-    row["operator_cache_hit"] = (cold["solver"].get("operator_cache_hit"),
-                                 warm["solver"].get("operator_cache_hit"))
+    row["operator_cache_hit"] = cold["solver"].get("operator_cache_hit")
     # the iterate loop, as a designer runs it: `lumijax run --quick` once, then one dimmer
     # changed and `lumijax run --quick` again (end to end, CLI included): the second answers
     # from the first's stored solution (docs/results.md, "Dimmer-only reruns")
@@ -359,6 +363,16 @@ def run_case(case: Case, work: Path, smoke: bool, ref_size: float) -> dict:
     expect = sum(v * (0.5 if k == net else 1.0) for k, v in by_net.items())
     row["dimmer_vs_cold"] = float(np.max(np.abs(lux_dimmed / expect - 1)))
     row["lumijax_spread"] = float(np.max(np.abs(lux_first / lux - 1)))
+    # a real recompute: the first luminaire moved 0.1 m along x (the operator cached: it does
+    # not depend on the luminaires; no stored solution has this key)
+    (pos, flux, lamp_net), *others = case.lamps
+    moved_case = Case(**{**case.__dict__,
+                         "lamps": [((pos[0] + 0.1, *pos[1:]), flux, lamp_net), *others]})
+    study.write_text(study_toml(moved_case), encoding="utf-8")
+    row["moved_s"], lux_moved, moved = lumijax_run(study, folder / "study" / "out", shared)
+    row["moved_reused"] = bool(moved["solver"].get("solution_reused"))
+    row["moved_operator_cache_hit"] = moved["solver"].get("operator_cache_hit")
+    row["moved_change"] = float(np.max(np.abs(lux_moved / lux - 1)))
     # Radiance, same scene and points
     try:
         row["radiance_s"], lux_rad = radiance(case, folder / "radiance", RADIANCE)
@@ -423,28 +437,34 @@ def machine() -> str:
 
 
 def report(rows: list[dict]) -> str:
-    head = ("| case | Radiance s | first s (×R) | cold s (×R) | warm s (R/warm) | quick s | "
-            "dimmer s | lumijax RMS | Radiance RMS | accuracy ×")
-    lines = [head, "|" + "---|" * 10]
+    head = ("| case | Radiance s | first s (×R) | cold s (×R) | warm s (R/warm) | "
+            "moved s (R/moved) | quick s | dimmer s | lumijax RMS | Radiance RMS | accuracy ×")
+    lines = [head, "|" + "---|" * 11]
     for r in rows:
         rs = r["radiance_s"]
         lines.append(
             f"| {r['case']} | {rs:.2f} | {r['first_s']:.1f} ({r['first_s'] / rs:.1f}) | "
             f"{r['cold_s']:.1f} ({r['cold_s'] / rs:.2f}) | {r['warm_s']:.1f} "
-            f"({rs / r['warm_s']:.2f}) | {r['quick_s']:.1f} | {r['dimmer_s']:.2f} | "
+            f"({rs / r['warm_s']:.2f}) | {r['moved_s']:.1f} ({rs / r['moved_s']:.2f}) | "
+            f"{r['quick_s']:.1f} | {r['dimmer_s']:.2f} | "
             f"{100 * r['lumijax_err']:.3f} % | "
             f"{100 * r['radiance_err']:.2f} % | {r['radiance_err'] / r['lumijax_err']:.1f} |")
     lines.append("")
     lines.append("Targets: cold ×R ≤ 1 with accuracy × ≥ 10; first ×R ≤ 3; R/warm ≥ 5; "
-                 "dimmer < 2 s.")
+                 "dimmer < 2 s. warm: the same study again, answered from the stored "
+                 "solution; moved: one luminaire moved 0.1 m, computed again with the "
+                 "operator cached.")
     for r in rows:
         lines.append(f"- {r['case']}: reference {r['reference']}; {r['patches']} patches, "
                      f"columns solved "
-                     f"{r['columns_solved']}; operator cache hit (cold, warm) "
+                     f"{r['columns_solved']}; operator cache hit, cold: "
                      f"{r['operator_cache_hit']}; first vs cold lux differ ≤ "
                      f"{r['lumijax_spread']:.1e}; dimmer rerun reused the stored solution: "
                      f"{r['dimmer_reused']}, differs from the cold run's superposition by ≤ "
-                     f"{r['dimmer_vs_cold']:.1e}")
+                     f"{r['dimmer_vs_cold']:.1e}; warm answered from the stored solution: "
+                     f"{r['warm_reused']}; moved computed again: {not r['moved_reused']} "
+                     f"(operator cache hit: {r['moved_operator_cache_hit']}; lux changed ≤ "
+                     f"{r['moved_change']:.1e})")
     return "\n".join(lines)
 
 
