@@ -159,9 +159,12 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
                 and _rerun(kept, cfg, rs, out, config_s=config_s, startup=startup, t0=t0,
                            timings=timings, console=console)):
             return 0
+        t = time.perf_counter()
         _compilation_cache()
         from ._study import compute, study_of
         from .report import write_results
+
+        marks["import"] = time.perf_counter() - t  # JAX and the compute's modules
 
         study = study_of(cfg, config_s=config_s)
         progress, update = _progress_bar(console, "lighting")
@@ -174,11 +177,13 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         if kept is not None:  # the next run that changes only dimmers reads this back
             from ._stored import store_solution
 
+            t = time.perf_counter()
             if not quick and results.lighting.coarse.patches is not None:
                 from .report._vtk import patch_arrays
 
                 stored_patches = patch_arrays(results.lighting)
             store_solution(results, *kept, patches=stored_patches)
+            marks["store"] = time.perf_counter() - t
         stages = dict(results.timing_s)  # the compute's (a fit that re-aims computes again)
         if optimise and study.config.optimise is not None:
             from .optimise import optimise as fit
@@ -300,12 +305,16 @@ def _timings_table(timing: dict, marks: dict, startup: float | None, run_s: floa
     rows: list[tuple[str, float]] = []
     if startup is not None:
         rows.append(("start-up + import", startup))
+    if "import" in marks:
+        rows.append(("import JAX and the compute", marks["import"]))
     for label, keys in TIMING_ROWS:
         if any(k in timing for k in keys):
             rows.append((label, sum(timing.get(k, 0.0) for k in keys)))
-    staged = sum(v for label, v in rows[1 if startup is not None else 0:]
+    staged = sum(v for label, v in rows[(startup is not None) + ("import" in marks):]
                  if label not in ("config", "scene"))
     rows.append(("compute, rest (grids, glare, compliance)", marks["compute"] - staged))
+    if "store" in marks:
+        rows.append(("store (for dimmer-only reruns)", marks["store"]))
     for key in ("optimise", "images"):
         if key in marks:
             rows.append((key, marks[key]))

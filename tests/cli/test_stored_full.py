@@ -207,3 +207,19 @@ def test_anything_but_a_dimmer_is_a_new_key(tmp_path, shared_photometry, full):
     key = solution_key(load_config(study), full=full)
     ies.write_bytes(real.replace(b"\n", b"\r\n", 1))
     assert solution_key(load_config(study), full=full) != key
+
+
+def test_a_cache_folder_keeps_the_newest_solutions_only(tmp_path):
+    # solutions of studies since edited in other ways than dimmers are never read again
+    from lumijax._stored import KEEP, load_solution, store_solution
+    from lumijax.results import Results
+
+    res = Results(study="s", grids={}, networks={"a": {"dimmer": 1.0}})
+    keys = [f"{i:064x}" for i in range(KEEP + 3)]
+    for i, key in enumerate(keys):
+        path = store_solution(res, tmp_path, key)
+        os.utime(path, (1e9 + i, 1e9 + i))  # the order they were written in, to the second
+    kept = sorted(p.name for p in tmp_path.glob("solution-*.npz"))
+    assert kept == sorted(f"solution-{k}.npz" for k in keys[-KEEP:])
+    assert load_solution(tmp_path, keys[-1]).document["study"] == "s"
+    assert load_solution(tmp_path, keys[0]) is None  # pruned: computed again, no warning
