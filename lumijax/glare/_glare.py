@@ -130,7 +130,7 @@ class Glare:
                 flags.append("large_sources")
             entry = {
                 "azimuth_deg": float(m.azimuths_deg[i][j]),
-                "direction": [float(x) for x in np.asarray(m.view_direction[v])],
+                "direction": [float(x) for x in np.asarray(m.view_direction)[v]],
                 "ugr": float(r.ugr[v]) if lb > 0 else None,
                 "gr": float(r.gr[v]) if lav > 0 else None,
                 "background_cdm2": float(lb),
@@ -190,7 +190,7 @@ class Glare:
     def _geometry(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per view and source (``names`` order), at the design: solid angle (sr), position
         index, unit direction eye → source (world)."""
-        import jax.numpy as jnp
+        import jax
 
         from ..scene._frames import aim_rotation
         from ._area import projected_area
@@ -209,7 +209,10 @@ class Glare:
                                                                 xp=np))
             w = np.asarray(g.towards_eye)
             local = np.einsum("mji,omj->omi", rot, w)
-            area = np.asarray(projected_area(g.opening, jnp.asarray(local)))
+            # in the model's dtype, as jnp.asarray(local) gave it, but on the host (xp=np):
+            # the same bits, and no eager kernel per shape (~25 in the demo's results)
+            dt = jax.dtypes.canonicalize_dtype(np.float64)
+            area = projected_area(g.opening, np.asarray(local, dt), xp=np)
             omega[:, idx] = (area * np.asarray(g.inv_d2))[obs]
             pos[:, idx] = np.asarray(g.position)
             dirs[:, idx] = -w[obs]
@@ -263,4 +266,4 @@ class _Unit:
         ones = self.design.replace(dimmers=np.ones(len(self.design.networks)))
         u, v = self.model.contributions(ones)
         return (np.asarray(u, np.float64), np.asarray(v, np.float64),
-                np.asarray(self.model._source_network()))
+                self.model.source_network_np())

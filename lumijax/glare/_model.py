@@ -38,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .._jit_cache import to_device
 from ..errors import GeometryError, LumijaxWarning
 from ..scene._frames import aim_rotation
 from ._area import NoLuminousSizeWarning, opening_size, projected_area
@@ -169,6 +170,16 @@ class GlareModel(eqx.Module):
         if not parts:
             return jnp.zeros((0,), jnp.int32)
         return jnp.concatenate(parts)[self.source_order]
+
+    def source_network_np(self) -> np.ndarray:
+        """:meth:`_source_network` on the host (the same integers; op by op in JAX it compiles
+        eight kernels, per shape and process)."""
+        parts = [np.asarray(g.network) for g in self.sources]
+        if self.areas is not None:
+            parts.append(np.asarray(self.areas.network))
+        if not parts:
+            return np.zeros((0,), np.int32)
+        return np.concatenate(parts)[np.asarray(self.source_order)]
 
     def _rate(self, ugr_s, veil, alpha) -> GlareRatings:
         """The ratings from each view's ``Σ L² ω / p²`` and veiling luminance at dimmers
@@ -350,12 +361,12 @@ def build_glare_model(scene, observers, lighting=None, *, rays: int = 512,
             for lum, i, lv in zip(lums, idx, levels[idx], strict=True)])
         sources.append(_Sources(
             distribution=phot.distribution, opening=phot.opening,
-            index=jnp.asarray(idx, jnp.int32),
-            network=jnp.asarray([net_index[lum.network] for lum in lums], jnp.int32),
-            frame=jnp.asarray(np.array([lum.frame_rotation for lum in lums])),
-            scale=jnp.asarray(base), towards_eye=jnp.asarray(w), inv_d2=jnp.asarray(1.0 / d2),
-            visible=jnp.asarray(visible), position=jnp.asarray(p),
-            cos_sigma=jnp.asarray(cos_s), angle_deg=jnp.asarray(ang)))
+            index=to_device(np.asarray(idx), jnp.int32),
+            network=to_device(np.asarray([net_index[lum.network] for lum in lums]), jnp.int32),
+            frame=to_device(np.array([lum.frame_rotation for lum in lums])),
+            scale=to_device(base), towards_eye=to_device(w), inv_d2=to_device(1.0 / d2),
+            visible=to_device(visible), position=to_device(p),
+            cos_sigma=to_device(cos_s), angle_deg=to_device(ang)))
 
     areas = _area_sources(scene, eyes, view_obs, forward, seen_by, net_index)
     background, environment = _background(lighting, eyes[view_obs], forward, caster, rays, k)
@@ -366,11 +377,11 @@ def build_glare_model(scene, observers, lighting=None, *, rays: int = 512,
                              + [len(scene.luminaires) + np.arange(len(scene.area_sources))
                                 if areas is not None else np.zeros(0, np.int64)])
     return GlareModel(
-        source_order=jnp.asarray(np.argsort(grouped, kind="stable").astype(np.int32)),
-        sources=tuple(sources), areas=areas, view_observer=jnp.asarray(view_obs),
-        background=jnp.asarray(background), environment=jnp.asarray(environment),
-        road=jnp.asarray(road), road_fixed=jnp.asarray(road_fixed),
-        view_direction=jnp.asarray(forward), observers=tuple(o.name for o in observers),
+        source_order=to_device(np.argsort(grouped, kind="stable").astype(np.int32)),
+        sources=tuple(sources), areas=areas, view_observer=to_device(view_obs),
+        background=to_device(background), environment=to_device(environment),
+        road=to_device(road), road_fixed=to_device(road_fixed),
+        view_direction=to_device(forward), observers=tuple(o.name for o in observers),
         azimuths_deg=tuple(tuple(o.azimuths_deg) for o in observers),
         has_road=tuple(o.road_luminance_cdm2 is not None or o.road_grid is not None
                        for o in observers),
@@ -423,10 +434,11 @@ def _area_sources(scene, eyes, view_obs, forward, caster, net_index):
     p, cos_s, ang = _view_geometry(-w[view_obs], forward)
     lum = np.array([a.exitance / math.pi for a in scene.area_sources])
     return _AreaSources(
-        network=jnp.asarray([net_index[a.network] for a in scene.area_sources], jnp.int32),
-        luminance=jnp.asarray(lum), solid_angle=jnp.asarray(area * cos_e / d2 * (visible > 0)),
-        transmission=jnp.asarray(visible),
-        position=jnp.asarray(p), cos_sigma=jnp.asarray(cos_s), angle_deg=jnp.asarray(ang))
+        network=to_device(np.asarray([net_index[a.network] for a in scene.area_sources]),
+                          jnp.int32),
+        luminance=to_device(lum), solid_angle=to_device(area * cos_e / d2 * (visible > 0)),
+        transmission=to_device(visible),
+        position=to_device(p), cos_sigma=to_device(cos_s), angle_deg=to_device(ang))
 
 
 def _seen_fraction(caster, eyes, targets) -> np.ndarray:
@@ -447,7 +459,7 @@ def _background(lighting, eyes, forward, caster, rays, k):
     from ..radiosity import build_gather
 
     gather = build_gather(eyes, forward, lighting.coarse.patches, caster, rays=rays, seed=7)
-    e_ind = np.asarray(gather(jnp.asarray(np.asarray(lighting.coarse.radiosity, np.float64).T)),
+    e_ind = np.asarray(gather(to_device(np.asarray(lighting.coarse.radiosity, np.float64).T)),
                        np.float64)  # (views, net) lx
     cover = gather.coverage[:, None]
     background = e_ind / math.pi

@@ -25,6 +25,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .._jit_cache import to_device
+
 __all__ = ["SeenSurfaces", "build_seen_surfaces", "FIELD_RAYS"]
 
 #: Rays over each line of sight's front half space (uniform in solid angle, stratified): at
@@ -81,8 +83,7 @@ class SeenSurfaces(eqx.Module):
 
     def to_dict(self, radiosity) -> dict[str, dict[str, dict]]:
         """results.json's per-observer ``surfaces``: ``{observer: {surface: {...}}}``."""
-        mx = np.asarray(self.maximum(radiosity), np.float64)
-        mean = np.asarray(self.mean(radiosity), np.float64)
+        mx, mean = (np.asarray(a, np.float64) for a in _stats(self, to_device(radiosity)))
         seen = self.seen()
         limit = {(o, s): v for o, s, v in self.limits}
         out: dict[str, dict[str, dict]] = {}
@@ -114,6 +115,14 @@ def _field_directions(forward: np.ndarray, rays: int) -> np.ndarray:
     t /= np.linalg.norm(t)
     b = np.cross(f, t)
     return d @ np.stack([t, b, f])
+
+
+@eqx.filter_jit
+def _stats(links: SeenSurfaces, radiosity):
+    """``(maximum, mean)`` in one program: op by op the luminance, the segment maximum and the
+    two segment sums compiled ~20 eager kernels per shape and process (the results' surfaces,
+    issue 19); the same operations, so the same bits."""
+    return links.maximum(radiosity), links.mean(radiosity)
 
 
 def build_seen_surfaces(scene, observers, patches, surface_names, *,

@@ -116,7 +116,7 @@ def fisheye_png(glare, view: int, *, title: str = "", size_in: float = 4.5) -> b
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    f = np.asarray(glare.model.view_direction[view], np.float64)
+    f = np.asarray(glare.model.view_direction, np.float64)[view]
     right = np.cross(f, [0.0, 0.0, 1.0])
     right /= max(np.linalg.norm(right), 1e-12)
     up = np.cross(right, f)
@@ -167,7 +167,7 @@ def observer_fisheye(results: Results, observer: int, *, view: int | None = None
     if view is None:
         view = int(glare.views_of(observer)[0])
     eye = np.asarray(glare.observers[observer].eye, np.float64)
-    f = np.asarray(glare.model.view_direction[view], np.float64)
+    f = np.asarray(glare.model.view_direction, np.float64)[view]
     surface = surface if surface is not None else surface_light(results)
     cam = Fisheye(position=tuple(eye), target=tuple(eye + f), up=(0.0, 0.0, 1.0),
                   size=(size, size), projection="equidistant", fov_deg=180.0)
