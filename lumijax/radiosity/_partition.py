@@ -237,10 +237,12 @@ def partition(
         from ..scene._raycast import RayCaster
 
         caster = occluders if isinstance(occluders, RayCaster) else RayCaster(occluders)
-        keep, rays = _occlusion_test(patches, members, offsets, a, b, caster, samples,
-                                     min_facing, max(samples, max_samples), seed)
-        culled_occluded = int((~keep).sum())
-        a, b = a[keep], b[keep]
+        # a convex room seen from inside blocks nothing (RayCaster.sees_everything): no rays
+        if not caster.sees_everything:
+            keep, rays = _occlusion_test(patches, members, offsets, a, b, caster, samples,
+                                         min_facing, max(samples, max_samples), seed)
+            culled_occluded = int((~keep).sum())
+            a, b = a[keep], b[keep]
     pairs = np.stack([a, b], axis=1).astype(np.int64)
     stats = dict(
         blocks=nb,

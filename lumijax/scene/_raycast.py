@@ -105,6 +105,45 @@ class RayCaster:
             out[s : s + _CHUNK] = (np.asarray(hit) >= 0) & ok
         return out
 
+    #: Largest triangles × vertices the convexity test of :attr:`sees_everything` runs on
+    #: (about a second of numpy at worst); beyond it the scene is treated as possibly occluding.
+    CONVEX_TEST_LIMIT = 200_000_000
+
+    @property
+    def sees_everything(self) -> bool:
+        """True when no triangle can block or dim a segment between two points of the scene's
+        triangles: the scene is convex as seen from inside (every triangle's plane has every
+        vertex on its non-negative side, along its normal: a plain box room with inward
+        normals) and every triangle is opaque (no glazing). Then a segment between points of
+        two triangles lies in every triangle's closed half-space, so it meets a triangle's
+        plane only at an end (which rays ignore) or lies in that plane (where it faces
+        nothing). Exact up to 10⁻⁹ of the scene's extent (``length_tolerance``); degenerate
+        triangles have no plane and are skipped. Computed once per caster."""
+        known = getattr(self, "_sees_everything", None)
+        if known is None:
+            known = self._sees_everything = self._convex_inside()
+        return known
+
+    def _convex_inside(self) -> bool:
+        from ..kernels import length_tolerance
+
+        if self.glazing_key is not None or self.n_triangles == 0:
+            return self.n_triangles == 0
+        tri = self._triangles - self.origin  # re-centred: site coordinates keep their digits
+        verts = np.unique(tri.reshape(-1, 3), axis=0)
+        if self.n_triangles * len(verts) > self.CONVEX_TEST_LIMIT:
+            return False
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        length = np.linalg.norm(n, axis=1)
+        tol = length_tolerance(self._triangles)
+        planar = length > 0
+        n = n[planar] / length[planar, None]
+        off = np.einsum("tc,tc->t", n, tri[planar, 0])
+        for s in range(0, len(n), 256):  # a non-convex scene fails in its first chunks
+            if np.any(verts @ n[s:s + 256].T - off[s:s + 256] < -tol):
+                return False
+        return True
+
     #: What, besides the triangles, changes what a ray carries (None: every triangle is opaque;
     #: a glazed caster's digest of its panes' transmittances). Part of an operator's cache key.
     glazing_key: str | None = None
