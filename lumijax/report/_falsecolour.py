@@ -397,16 +397,18 @@ def falsecolour_map(
         mesh.point_data["lux"] = np.maximum(e, vmin)
     mesh.point_data["contour"] = contour_field(np.asarray(mesh.point_data["lux"]), shape)
 
+    from ._plotters import plotter as lent
+
     was_off_screen = pv.OFF_SCREEN
     pv.OFF_SCREEN = True
-    plotter = pv.Plotter(off_screen=True, window_size=list(view.window_size))
     try:
-        _draw(pv, plotter, mesh, view, p, e, title, levels, scale, cmap, (vmin, vmax), labels)
-        _luminaires(pv, plotter, view, p, luminaires)
-        with atomic_path(path, what="map", suffix=".png") as tmp:  # VTK reads the suffix
-            plotter.screenshot(str(tmp), transparent_background=False)
+        with lent(view.window_size) as plotter:  # kept for the next map of this size
+            _draw(pv, plotter, mesh, view, p, e, title, levels, scale, cmap, (vmin, vmax),
+                  labels)
+            _luminaires(pv, plotter, view, p, luminaires)
+            with atomic_path(path, what="map", suffix=".png") as tmp:  # VTK reads the suffix
+                plotter.screenshot(str(tmp), transparent_background=False)
     finally:
-        plotter.close()
         pv.OFF_SCREEN = was_off_screen
     return path
 

@@ -27,9 +27,11 @@ BACKGROUND = "#15181e"  # a night sky: dark, slightly blue, so black shadows sti
 
 
 def _plotter(size):
-    import pyvista as pv
+    """A blank off-screen plotter of ``size``, lent (``_plotters``: kept for the next view of
+    that size, so its window and shaders are made once); use it as a context manager."""
+    from ._plotters import plotter
 
-    return pv.Plotter(off_screen=True, window_size=[int(size[0]), int(size[1])])
+    return plotter(size)
 
 
 def _place(pl, cam: Camera) -> None:
@@ -269,8 +271,7 @@ def render_realistic(surface, cam: Camera, dimmers, scene=None, *, ev: float | N
         return out, float(ev)
     mesh = surface.polydata()
     mesh.point_data["rgb"] = view_colours(surface, dimmers, ev, tone or cam.tone)
-    pl = _plotter(cam.size)
-    try:
+    with _plotter(cam.size) as pl:
         pl.set_background(BACKGROUND)
         pl.add_mesh(mesh, scalars="rgb", rgb=True, lighting=False, culling="back",
                     show_scalar_bar=False)
@@ -278,8 +279,6 @@ def render_realistic(surface, cam: Camera, dimmers, scene=None, *, ev: float | N
             _fittings(pl, scene, dimmers, cam, cam.markers if markers is None else markers)
         _place(pl, cam)
         return _shot(pl), float(ev)
-    finally:
-        pl.close()
 
 
 def _traced(scene) -> bool:
@@ -355,8 +354,7 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
     name = "Luminance" if quantity == "luminance" else "Illuminance"
     mesh.point_data["value"] = np.maximum(vals, vmin) if scale == "log" else vals
     h = cam.size[1]
-    pl = _plotter(cam.size)
-    try:
+    with _plotter(cam.size) as pl:
         pl.set_background("white")
         pl.add_mesh(
             mesh, scalars="value", cmap=_cmap(cmap), clim=(vmin, vmax),
@@ -377,8 +375,6 @@ def render_falsecolour_view(points_faces, values, cam: Camera, *, quantity: str 
                 pl.add_mesh(lines, color="black", line_width=max(2, h // 400), lighting=False)
         _place(pl, cam)
         scene = _shot(pl)
-    finally:
-        pl.close()
     if not frame:
         return scene, (vmin, vmax)
     from ._frame import frame_view
