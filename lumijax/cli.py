@@ -165,6 +165,10 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         from .report import write_results
 
         marks["import"] = time.perf_counter() - t  # JAX and the compute's modules
+        if images or report:  # pyvista and matplotlib load while the numbers are computed
+            from .report._prewarm import start
+
+            start()
 
         study = study_of(cfg, config_s=config_s)
         progress, update = _progress_bar(console, "lighting")
