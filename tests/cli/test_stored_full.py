@@ -223,3 +223,25 @@ def test_a_cache_folder_keeps_the_newest_solutions_only(tmp_path):
     assert kept == sorted(f"solution-{k}.npz" for k in keys[-KEEP:])
     assert load_solution(tmp_path, keys[-1]).document["study"] == "s"
     assert load_solution(tmp_path, keys[0]) is None  # pruned: computed again, no warning
+
+
+def test_a_corrupted_full_solution_is_recomputed_with_a_warning(tmp_path, capsys):
+    study = tmp_path / "study.toml"
+    study.write_text(box_room(SOLVER), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["run", str(study), "--out", str(out), *NUMBERS]) == 0
+    expected = (out / "patches.vtp").read_bytes()
+    (path,) = (tmp_path / ".lumijax-cache").glob("solution-*.npz")
+    assert path.name == f"solution-{solution_key(load_config(study), full=True)}.npz"
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    path.write_bytes(bytes(data))
+    capsys.readouterr()
+    assert main(["run", str(study), "--out", str(out), *NUMBERS]) == 0
+    printed = capsys.readouterr().out
+    assert "stored solution" in printed and "digest" in printed
+    assert "solution_reused" not in _doc(out)["solver"]
+    assert (out / "patches.vtp").read_bytes() == expected
+    # and the solution it stored again answers the next run
+    assert main(["run", str(study), "--out", str(out), *NUMBERS]) == 0
+    assert _doc(out)["solver"]["solution_reused"] is True
