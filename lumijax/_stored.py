@@ -171,8 +171,8 @@ def store_solution(results, cache_dir: str | Path, key: str,
     folder cannot be written. ``results`` must be at the config's design, not optimised;
     ``patches``: patches.vtp's arrays (``patch_arrays``), kept as they are (their dtypes)."""
     arrays: dict[str, np.ndarray] = {}
-    for name, a in (patches or {}).items():
-        arrays[f"p.{name}"] = np.asarray(a)
+    for name, values in (patches or {}).items():
+        arrays[f"p.{name}"] = np.asarray(values)
     grids = {}
     for i, (name, g) in enumerate(results.grids.items()):
         for a in _GRID_ARRAYS:
