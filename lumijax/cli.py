@@ -165,12 +165,12 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         from .report import write_results
 
         marks["import"] = time.perf_counter() - t  # JAX and the compute's modules
-        if images or report:  # pyvista and matplotlib load while the numbers are computed
-            from .report._prewarm import start
-
-            start()
 
         study = study_of(cfg, config_s=config_s)
+        if images or report:  # pyvista, matplotlib, polar curves: while the numbers compute
+            from .report._prewarm import start
+
+            start(study.scene.photometries if report else None)
         progress, update = _progress_bar(console, "lighting")
         t = time.perf_counter()
         with progress:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import threading
 
 import numpy as np
 
@@ -48,16 +49,22 @@ def _plane_curve(dist, c_deg: float, gamma: np.ndarray) -> np.ndarray:
 #: other one (0.5°), the same angles exactly (k · 0.25 is exact in binary)
 _GAMMA = np.linspace(0.0, 180.0, 721)
 _MAIN_PLANES = (0.0, 90.0, 180.0, 270.0)
-#: id(distribution) → (distribution, {C: curve}); the distribution is held, so its id stays its
-_CURVES: dict[int, tuple[object, dict[float, np.ndarray]]] = {}
+#: (id(distribution), x64) → (distribution, {C: curve}); the distribution is held, so its id
+#: stays its own; x64 is JAX's mode the lookup ran in (it sets the lookup's precision)
+_CURVES: dict[tuple[int, bool], tuple[object, dict[float, np.ndarray]]] = {}
 _MAX_CURVES = 32
+_lock = threading.Lock()
 
 
 def _main_curves(dist) -> dict[float, np.ndarray]:
     """Intensity (cd) in the C0, C90, C180 and C270 half-planes at :data:`_GAMMA`, from one
     lookup, kept per distribution: a report asks for them three times (the two beam angles and
-    the polar plot)."""
-    hit = _CURVES.get(id(dist))
+    the polar plot), and :func:`prefetch` may have asked first, in another thread."""
+    import jax
+
+    key = (id(dist), bool(jax.config.read("jax_enable_x64")))
+    with _lock:
+        hit = _CURVES.get(key)
     if hit is not None and hit[0] is dist:
         return hit[1]
     g = np.radians(_GAMMA)
@@ -65,10 +72,20 @@ def _main_curves(dist) -> dict[float, np.ndarray]:
     d = np.stack(np.broadcast_arrays(np.sin(g) * np.cos(c), np.sin(g) * np.sin(c), -np.cos(g)),
                  axis=-1)
     curves = dict(zip(_MAIN_PLANES, intensity_np(dist, d), strict=True))
-    if len(_CURVES) >= _MAX_CURVES:
-        _CURVES.pop(next(iter(_CURVES)))
-    _CURVES[id(dist)] = (dist, curves)
+    with _lock:
+        if len(_CURVES) >= _MAX_CURVES:
+            _CURVES.pop(next(iter(_CURVES)))
+        _CURVES[key] = (dist, curves)
     return curves
+
+
+def prefetch(photometries) -> None:
+    """Figure the report's plane curves of each photometry (``{name: Photometry}``) now: each
+    table shape compiles its own lookup (~0.2 s cold), so a run that will write a report does
+    this in the background while it computes (``report._prewarm``), and the report finds
+    them kept. The same lookups, so the same curves."""
+    for p in photometries.values():
+        _main_curves(p.distribution)
 
 
 def beam_angle_deg(dist, c_deg: float = 0.0) -> float:

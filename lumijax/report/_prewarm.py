@@ -5,7 +5,8 @@ matplotlib the first time it draws: ~1.5 s of a cold ``lumijax demo`` (pyvista's
 1.2 s, matplotlib's figure and Agg canvas; contended), all of it on the critical path, after
 the optimiser. :func:`start` imports them in a daemon thread when the run begins, so the
 imports overlap the lighting's compiled kernels and ray casts (which release the GIL), and the
-first picture finds them loaded. Nothing is drawn and no window or OpenGL context is made
+first picture finds them loaded; a run that writes a report also figures its photometries'
+plane curves there first (the polar plots' and beam angles' lookups). Nothing is drawn and no window or OpenGL context is made
 (those belong to the thread that draws); the modules are the ones the first picture imports
 today (pyvista's plotting brings ``matplotlib.pyplot`` with it), in the same order. An import
 that fails here is left for the drawing code to report as it always has.
@@ -36,7 +37,14 @@ MODULES = (
 _OFF = {"0", "off", "false", "no"}
 
 
-def _import_all() -> None:
+def _prewarm(photometries) -> None:
+    if photometries:
+        from ._polar import prefetch
+
+        try:
+            prefetch(photometries)
+        except Exception:  # the report figures them itself, and reports what fails
+            pass
     for name in MODULES:
         try:
             importlib.import_module(name)
@@ -44,11 +52,14 @@ def _import_all() -> None:
             return
 
 
-def start() -> threading.Thread | None:
-    """Start importing :data:`MODULES` in a daemon thread; the thread, or None when turned off
-    by ``$LUMIJAX_PREWARM``."""
+def start(photometries=None) -> threading.Thread | None:
+    """Start importing :data:`MODULES` in a daemon thread, after figuring the report's plane
+    curves of ``photometries`` (``{name: Photometry}``, a study's: ``_polar.prefetch``, one
+    compiled lookup per table shape, which releases the GIL while it compiles); the thread, or
+    None when turned off by ``$LUMIJAX_PREWARM``."""
     if os.environ.get("LUMIJAX_PREWARM", "1").strip().lower() in _OFF:
         return None
-    t = threading.Thread(target=_import_all, name="lumijax-prewarm", daemon=True)
+    t = threading.Thread(target=_prewarm, args=(photometries,), name="lumijax-prewarm",
+                         daemon=True)
     t.start()
     return t

@@ -20,7 +20,7 @@ __all__ = ["write_patches_vtp", "patch_arrays", "write_stored_patches_vtp",
            "triangles_vtp"]
 
 
-def write_patches_vtp(lighting, dimmers, path: str | Path) -> Path:
+def write_patches_vtp(lighting, dimmers, path: str | Path, illuminance=None) -> Path:
     """Write the radiosity patches with their light as cell data.
 
     Cell arrays: ``radiosity_lm_m2`` (exitance B at the dimmers), ``luminance_cd_m2`` (B/π),
@@ -28,11 +28,15 @@ def write_patches_vtp(lighting, dimmers, path: str | Path) -> Path:
     ``direct_lux``, ``reflectance``, ``material`` (index into the study's materials) and, per
     network at dimmer 1, ``radiosity_lm_m2:NETWORK``. After a spectral solve also ``xyz``
     (CIE 1931 XYZ of the radiosity, Y = ``radiosity_lm_m2``), ``chromaticity_xy`` and ``srgb``
-    (display colour, exposed so the 99th percentile of Y is white).
+    (display colour, exposed so the 99th percentile of Y is white). ``illuminance``: the
+    patches' irradiance at ``dimmers`` (lx) when the caller has it already
+    (``lighting.display_patch_illuminance_at(dimmers)``, figured while it drew).
     """
     d = np.asarray(dimmers, np.float64)
     arrays = patch_arrays(lighting, per_network_illuminance=False)
-    return _write(arrays, d, lighting.display_patch_illuminance_at(d), path)
+    if illuminance is None:
+        illuminance = lighting.display_patch_illuminance_at(d)
+    return _write(arrays, d, illuminance, path)
 
 
 def patch_arrays(lighting, *, per_network_illuminance: bool = True) -> dict[str, np.ndarray]:

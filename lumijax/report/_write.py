@@ -20,6 +20,7 @@ import re
 import secrets
 import shutil
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -217,6 +218,15 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         raise OutputError("this result set is not open", file=rs.out)
     staging, out_dir = rs.staging, rs.out
     written: list[str] = []
+    lighting = results.lighting
+    vtp_lux = None
+    if patches and stored_patches is None and lighting is not None and (
+            lighting.coarse.patches is not None):
+        # patches.vtp's irradiance is one compiled operator product (~1 s cold, most of it
+        # XLA's compile, which releases the GIL): figured in a thread while results.json and
+        # the maps are made, and waited for when the file is written
+        vtp_lux = _in_thread(lighting.display_patch_illuminance_at,
+                             np.asarray(results.design.dimmers, np.float64))
     try:
         _write_document(staging, results.to_dict(), written)
         if results.optimisation is not None:
@@ -245,11 +255,10 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
                 _step(f"wrote images/{name}.png")
         if timings is not None:
             timings["images"] = time.perf_counter() - t_images
-        lighting = results.lighting
         if patches and stored_patches is not None:
             _write_stored_vtp(staging, stored_patches, results.design.dimmers, written)
-        elif patches and lighting is not None and lighting.coarse.patches is not None:
-            _write_vtp(staging, lighting, results.design.dimmers, written)
+        elif vtp_lux is not None:
+            _write_vtp(staging, lighting, results.design.dimmers, written, vtp_lux.result())
     except OSError as e:
         raise OutputError(f"cannot write results: {e.strerror or e}", file=out_dir) from None
     return _published(staging, out_dir, written)
@@ -287,10 +296,34 @@ def _write_grids(staging: Path, grids: dict, written: list[str]) -> None:
         written.append(f"grids/{name}.csv")
 
 
-def _write_vtp(staging: Path, lighting, dimmers, written: list[str]) -> None:
+class _in_thread:  # noqa: N801 (used as a function: _in_thread(fn, *args).result())
+    """``fn(*args)`` in a daemon thread; :meth:`result` waits for it and returns it, or raises
+    what it raised."""
+
+    def __init__(self, fn, *args):
+        self._out, self._err = None, None
+        self._thread = threading.Thread(target=self._run, args=(fn, args), daemon=True,
+                                        name="lumijax-write")
+        self._thread.start()
+
+    def _run(self, fn, args) -> None:
+        try:
+            self._out = fn(*args)
+        except BaseException as e:  # re-raised in the caller's thread by result()
+            self._err = e
+
+    def result(self):
+        self._thread.join()
+        if self._err is not None:
+            raise self._err
+        return self._out
+
+
+def _write_vtp(staging: Path, lighting, dimmers, written: list[str],
+               illuminance=None) -> None:
     from ._vtk import write_patches_vtp
 
-    write_patches_vtp(lighting, dimmers, staging / "patches.vtp")
+    write_patches_vtp(lighting, dimmers, staging / "patches.vtp", illuminance)
     written.append("patches.vtp")
     _step("wrote patches.vtp")
 
