@@ -4,7 +4,8 @@ points, in the same run.
     python benchmarks/small.py                 # every case (minutes; run it alone on the machine)
     python benchmarks/small.py --case cube0.8  # one case
     python benchmarks/small.py --smoke         # a tiny cube, coarse settings: the code runs
-    python benchmarks/small.py --patch-sweep   # accuracy against target_patches (no timing)
+    python benchmarks/small.py --patch-sweep   # accuracy against target_patches and of the
+                                               # default rule ([solver] accuracy; no timing)
 
 Cases: the closed 4 m cube at ρ 0.2 / 0.5 / 0.8 (an isotropic 10,000 lm source at its centre,
 100 floor points 1 cm up), the furnished room of ``studies/validation`` (100 workplane points)
@@ -396,34 +397,41 @@ def run_case(case: Case, work: Path, smoke: bool, ref_size: float) -> dict:
     return row
 
 
-def patch_sweep(chosen: list[Case], counts, ref_size: float, work: Path) -> str:
+def patch_sweep(chosen: list[Case], counts, ref_size: float, work: Path,
+                accuracies=(0.01,)) -> str:
     """Error against the reference of ``[solver] target_patches`` = each of ``counts`` (the
-    default settings otherwise), and the a-posteriori estimate |E_N − E_N/2| beside it. An
-    accuracy measurement (run in-process; no timing)."""
+    default settings otherwise), and the a-posteriori estimate |E_N − E_N/2| beside it; then
+    the default rule (``target_patches`` unset) at each of ``accuracies`` (``[solver]
+    accuracy``). An accuracy measurement (run in-process; no timing)."""
     import lumijax
 
     lines = ["| case | target_patches | patches | RMS error | max error | "
              "RMS |E_N − E_N/2| |", "|---|---|---|---|---|---|"]
     for case in chosen:
         lux = {}
-        for n in counts:
-            case_n = Case(**{**case.__dict__, "solver": f"target_patches = {n}\ncache = false"})
-            path = write(work / "sweep" / case.name / str(n), study_toml(case_n))
+        runs = [(str(n), f"target_patches = {n}") for n in counts]
+        runs += [(f"rule, accuracy = {a:g}", f"accuracy = {a}") for a in accuracies]
+        for key, line in runs:
+            case_n = Case(**{**case.__dict__, "solver": f"{line}\ncache = false"})
+            path = write(work / "sweep" / case.name / key.replace(" ", "").replace(",", "_"),
+                         study_toml(case_n))
             res = lumijax.compute(lumijax.load_study(path))
-            lux[n] = (res.grids["points"].illuminance_lux, res.counts.get("patches"))
+            lux[key] = (res.grids["points"].illuminance_lux, res.counts.get("patches"))
         if case.convex:
             ref, what = reference(case, ref_size)["lux"], f"numpy reference ({ref_size} m)"
         else:
-            finest = max(counts)
+            finest = str(max(counts))
             ref, what = lux[finest][0], f"lumijax at target_patches = {finest}"
         prev = None
-        for n in counts:
-            e, patches = lux[n]
-            est = "" if prev is None else f"{100 * rms(e, lux[prev][0]):.3f} %"
-            lines.append(f"| {case.name} ({what}) | {n} | {patches} | {100 * rms(e, ref):.3f} %"
-                         f" | {100 * np.max(np.abs(e / ref - 1)):.3f} % | {est} |")
-            prev = n
-        print("\n".join(lines[-len(counts):]), flush=True)
+        for key, _ in runs:
+            e, patches = lux[key]
+            est = "" if prev is None or not key.isdigit() else \
+                f"{100 * rms(e, lux[prev][0]):.3f} %"
+            lines.append(f"| {case.name} ({what}) | {key} | {patches} | "
+                         f"{100 * rms(e, ref):.3f} % | {100 * np.max(np.abs(e / ref - 1)):.3f} %"
+                         f" | {est} |")
+            prev = key
+        print("\n".join(lines[-len(runs):]), flush=True)
     return "\n".join(lines)
 
 
@@ -477,7 +485,9 @@ def main(argv=None) -> int:
     ap.add_argument("--work", type=Path, default=None, help="keep the studies here")
     ap.add_argument("--patch-sweep", type=int, nargs="*", default=None, metavar="N",
                     help="accuracy only: error against the reference at these target_patches "
-                    "(default 500 1000 2000 4000 8000)")
+                    "(default 500 1000 2000 4000 8000), and the default rule")
+    ap.add_argument("--accuracy", type=float, action="append", default=None,
+                    help="with --patch-sweep: the rule's [solver] accuracy (default 0.01)")
     args = ap.parse_args(argv)
     ref_size = args.ref_size or (0.8 if args.smoke else 0.25)
     chosen = [c for c in cases(args.smoke) if not args.case or c.name in args.case]
@@ -490,7 +500,7 @@ def main(argv=None) -> int:
     """))
     if args.patch_sweep is not None:
         counts = args.patch_sweep or [500, 1000, 2000, 4000, 8000]
-        print(patch_sweep(chosen, counts, ref_size, work))
+        print(patch_sweep(chosen, counts, ref_size, work, args.accuracy or [0.01]))
         return 0
     rows = []
     for case in chosen:

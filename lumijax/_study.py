@@ -90,6 +90,7 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
     c = study.config.solver
     values = dict(
         indirect=c.indirect, patch_size=c.patch_size, target_patches=c.target_patches,
+        accuracy=c.accuracy,
         max_block=c.max_block, method=c.method, tolerance=c.tolerance,
         max_iterations=c.max_iterations, gather_rays=c.gather_rays, precision=c.precision,
         spectral_samples=c.spectral_samples, operator_patches=c.operator_patches,
@@ -113,7 +114,8 @@ def check_memory(study: Study):
         _check_before_meshing,
         _group_counts,
         _two_levels,
-        auto_patch_size,
+        patch_size_of,
+        requested_patches,
     )
     from .radiosity import mesh_patches
     from .radiosity._estimate import bound_operator_memory
@@ -122,7 +124,7 @@ def check_memory(study: Study):
     tri = study.scene.triangles
     if not settings.indirect or len(tri) == 0 or not study.scene.networks:
         return None
-    size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
+    size = patch_size_of(study.scene, settings)
     _check_before_meshing(study.scene, tri, size, settings)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     patches, fine = _two_levels(patches, tri, size, settings.operator_patches)
@@ -136,8 +138,8 @@ def check_memory(study: Study):
         patches, max_block=settings.max_block, itemsize=itemsize, caster=study.scene.raycaster,
         triangles=len(tri), two_levels=fine is not None, file=study.config.source,
         patch_size=None if fine is not None else size,
-        requested=settings.operator_patches if fine is not None else (
-            None if settings.patch_size else settings.target_patches),
+        requested=settings.operator_patches if fine is not None else requested_patches(
+            float(tri.areas.sum()), size, settings),
         remesh=lambda n: _group_counts(tri, n))
     return estimate
 

@@ -531,7 +531,10 @@ class SolverConfig(_Model):
 
     indirect: bool = True
     patch_size: Positive | None = Field(None, description="m; default: automatic")
-    target_patches: Annotated[int, Field(ge=10, le=10_000_000)] = 4_000
+    # None: the count follows from ``accuracy`` (at most 4,000; docs/radiosity.md, "Patch
+    # count against an accuracy target"); a number: about that many, as before the rule
+    target_patches: Annotated[int, Field(ge=10, le=10_000_000)] | None = None
+    accuracy: Annotated[float, Field(ge=1e-4, le=0.5)] = 0.01
     max_block: Annotated[int, Field(ge=16, le=8192)] = 1024
     method: RadiosityMethodName = "refined"
     tolerance: Annotated[float, Field(gt=0, lt=1)] | None = None

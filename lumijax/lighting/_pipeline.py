@@ -19,6 +19,8 @@ CREATED_WARN = st.CREATED_WARN
 _check_before_meshing = st._check_before_meshing
 _group_counts = st._group_counts
 _two_levels = st._two_levels
+patch_size_of = st.patch_size_of
+requested_patches = st.requested_patches
 
 _DEFAULT = SolverSettings()
 

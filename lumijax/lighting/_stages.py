@@ -40,7 +40,13 @@ from ..radiosity._estimate import bound_operator_memory, check_before_meshing
 from ..radiosity._final_gather import FineLevel, element_direct, final_gather
 from ..scene import AreaSource, Luminaire, Network, Scene
 from ..spectral import Spectrum
-from ._settings import SolverSettings, auto_patch_size
+from ._settings import (
+    SolverSettings,
+    accuracy_patch_size,
+    auto_patch_size,
+    mean_free_path,
+    source_distance,
+)
 from ._solution import Level, LightingSolution, Shot, _needed, shoot
 from ._spectral import SpectralSetup, source_spectrum
 
@@ -48,7 +54,7 @@ __all__ = [
     "Emission", "DirectLight", "Meshed", "Transport", "Sampling", "GatherRays", "Radiosity",
     "Gathered", "group_emission", "light_points", "mesh", "build_transport", "light_patches",
     "sample_spectra", "cast_gather_rays", "solve", "gather_fine", "assemble", "direct_only",
-    "CREATED_WARN", "POINT_CHUNK",
+    "CREATED_WARN", "POINT_CHUNK", "patch_size_of", "requested_patches",
 ]
 
 Report = Callable[[int, int], None]
@@ -278,7 +284,7 @@ def mesh(scene: Scene, emission: Emission, settings: SolverSettings) -> Meshed:
     split into elements and fine patches when ``operator_patches`` asks for two levels."""
     t = time.perf_counter()
     tri = scene.triangles
-    size = settings.patch_size or auto_patch_size(float(tri.areas.sum()), settings.target_patches)
+    size = patch_size_of(scene, settings)
     _check_before_meshing(scene, tri, size, settings)
     patches = mesh_patches(tri.vertices, tri.material, tri.group, patch_size=size)
     if settings.refine:
@@ -308,8 +314,8 @@ def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
         patches, max_block=settings.max_block, itemsize=np.dtype(dtype).itemsize,
         caster=caster, triangles=len(tri), two_levels=fine is not None,
         file=scene.source, patch_size=None if fine is not None else meshed.patch_size_m,
-        requested=settings.operator_patches if fine is not None else (
-            None if settings.patch_size else settings.target_patches),
+        requested=settings.operator_patches if fine is not None else requested_patches(
+            float(tri.areas.sum()), meshed.patch_size_m, settings),
         remesh=lambda n: _group_counts(tri, n))
     bound_s = time.perf_counter() - t
     partition_s = None
@@ -549,6 +555,31 @@ def _gather_in_chunks(points, normals, patches: Patches, caster, rays: int,
         parts[0], n_points=n, point=np.concatenate([g.point for g in parts]),
         patch=np.concatenate([g.patch for g in parts]),
         weight=np.concatenate([g.weight for g in parts]))
+
+
+def patch_size_of(scene: Scene, settings: SolverSettings) -> float:
+    """The patch edge (m) a study's surfaces are cut at: ``patch_size`` when set, else about
+    ``target_patches`` patches when set (both exactly as before the accuracy rule), else the
+    edge that ``accuracy`` asks for from the scene's mean free path (docs/radiosity.md,
+    "Patch count against an accuracy target")."""
+    if settings.patch_size:
+        return settings.patch_size
+    area = float(scene.triangles.areas.sum())
+    if settings.target_patches is not None:
+        return auto_patch_size(area, settings.target_patches)
+    return accuracy_patch_size(area, mean_free_path(scene.triangles.vertices, scene.raycaster),
+                               settings.accuracy, source_distance(scene))
+
+
+def requested_patches(total_area_m2: float, size: float, settings: SolverSettings) -> int | None:
+    """The ``target_patches`` a memory refusal scales (``_estimate.check_operator_memory``):
+    the study's own, the count the accuracy rule's edge amounts to, or None with an explicit
+    ``patch_size``."""
+    if settings.patch_size:
+        return None
+    if settings.target_patches is not None:
+        return settings.target_patches
+    return max(10, round(4.0 * total_area_m2 / size**2))
 
 
 def _check_before_meshing(scene: Scene, tri, size: float, settings: SolverSettings) -> None:
