@@ -40,13 +40,19 @@ from ._atomic import atomic_path
 from .errors import LumijaxWarning, OutputError
 
 __all__ = ["StoredSolution", "solution_key", "solution_path", "store_solution",
-           "load_solution"]
+           "load_solution", "MAX_PATCH_BYTES"]
 
 FORMAT = "lumijax-solution-1"
 
 #: Solutions kept per cache folder: the newest, by modification time; older ones (studies
 #: since edited in other ways than dimmers) are removed when a new one is stored.
 KEEP = 16
+
+#: The most bytes a full solution's patch arrays may take (the 4,332-patch cube with one
+#: network: 0.5 MB); a larger study's full runs are not stored (they compute, as before), so
+#: that neither its cache folder (up to :data:`KEEP` files) nor its run (one operator product
+#: per network for the patches' irradiance) grows with patches × networks without bound.
+MAX_PATCH_BYTES = 64 * 2**20
 
 
 

@@ -179,14 +179,17 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         marks["compute"] = time.perf_counter() - t
         stored_patches = None
         if kept is not None:  # the next run that changes only dimmers reads this back
-            from ._stored import store_solution
+            from ._stored import MAX_PATCH_BYTES, store_solution
 
             t = time.perf_counter()
             if not quick and results.lighting.coarse.patches is not None:
                 from .report._vtk import patch_arrays
 
-                stored_patches = patch_arrays(results.lighting)
-            store_solution(results, *kept, patches=stored_patches)
+                stored_patches = patch_arrays(results.lighting, max_bytes=MAX_PATCH_BYTES)
+                if stored_patches is None:  # too large to keep: this study always computes
+                    kept = None
+            if kept is not None:
+                store_solution(results, *kept, patches=stored_patches)
             marks["store"] = time.perf_counter() - t
         stages = dict(results.timing_s)  # the compute's (a fit that re-aims computes again)
         if optimise and study.config.optimise is not None:

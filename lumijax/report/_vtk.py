@@ -34,19 +34,22 @@ def write_patches_vtp(lighting, dimmers, path: str | Path, illuminance=None) -> 
     """
     d = np.asarray(dimmers, np.float64)
     arrays = patch_arrays(lighting, per_network_illuminance=False)
+    assert arrays is not None  # (no max_bytes)
     if illuminance is None:
         illuminance = lighting.display_patch_illuminance_at(d)
     return _write(arrays, d, illuminance, path)
 
 
-def patch_arrays(lighting, *, per_network_illuminance: bool = True) -> dict[str, np.ndarray]:
+def patch_arrays(lighting, *, per_network_illuminance: bool = True,
+                 max_bytes: int | None = None) -> dict[str, np.ndarray] | None:
     """What patches.vtp is made of, none of it at a dimmer: ``vertices`` (3n, 3) m,
     ``radiosity`` (net, n) lm/m² and ``direct`` (net, n) lx at dimmer 1, ``reflectance``,
     ``material``, ``networks`` (names), ``xyz`` (net, 3, n) after a spectral solve and, with
     ``per_network_illuminance``, ``illuminance`` (net, n) lx: each network's irradiance at
     dimmer 1, from one operator product per network (the shape of the product at the dimmers,
     so nothing new compiles). A dimmer-only rerun (``lumijax._stored``) writes the file from
-    these with :func:`write_stored_patches_vtp`, with no JAX."""
+    these with :func:`write_stored_patches_vtp`, with no JAX. None where they would take more
+    than ``max_bytes`` (checked before any product)."""
     p = lighting.display.patches  # the fine patches of a two-level solve
     k = len(lighting.scene.network_names)
     arrays = {
@@ -59,6 +62,9 @@ def patch_arrays(lighting, *, per_network_illuminance: bool = True) -> dict[str,
     }
     if lighting.display.radiosity_xyz is not None:
         arrays["xyz"] = np.asarray(lighting.display.radiosity_xyz)
+    if max_bytes is not None and (sum(a.nbytes for a in arrays.values())
+                                  + 8 * k * p.n * per_network_illuminance > max_bytes):
+        return None
     if per_network_illuminance:
         rows = [np.asarray(lighting.display_patch_illuminance_at(e)) for e in np.eye(k)]
         arrays["illuminance"] = np.stack(rows) if rows else np.zeros((0, p.n))

@@ -245,3 +245,24 @@ def test_a_corrupted_full_solution_is_recomputed_with_a_warning(tmp_path, capsys
     # and the solution it stored again answers the next run
     assert main(["run", str(study), "--out", str(out), *NUMBERS]) == 0
     assert _doc(out)["solver"]["solution_reused"] is True
+
+
+def test_a_study_whose_patches_are_too_large_to_keep_always_computes(tmp_path, monkeypatch):
+    import lumijax._stored
+
+    study = tmp_path / "study.toml"
+    study.write_text(box_room(SOLVER), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["run", str(study), "--out", str(out), *NUMBERS]) == 0
+    key = solution_key(load_config(study), full=True)
+    needed = tmp_path / ".lumijax-cache" / f"solution-{key}.npz"
+    assert needed.is_file()
+    needed.unlink()
+    # this study's ~150 patches take more than 4 kB (their triangles alone: 150 × 9
+    # coordinates): a cap of 4 kB stores nothing
+    monkeypatch.setattr(lumijax._stored, "MAX_PATCH_BYTES", 4096)
+    for _ in range(2):
+        assert main(["run", str(study), "--out", str(out), *NUMBERS]) == 0
+        assert "solution_reused" not in _doc(out)["solver"]
+        assert (out / "patches.vtp").is_file()
+    assert not needed.exists()
