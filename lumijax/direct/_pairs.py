@@ -9,6 +9,15 @@ aim), in the sub-source's distance band (the 5× rule for large openings), and i
 What does not depend on the aim is kept: the unit direction (world frame) and the gain
 ``scale · cos θ_r / d²`` (1/m², times cd gives lx; the scale holds the sub-source's share, the
 multiplier, maintenance factor, level and the LM-63 TILT factor of the start aim).
+
+Culling is exact: a pair is skipped only where its light is exactly zero, and the steps are
+ordered by what they cost. Receivers are clustered into tiles (bounding spheres); per source
+and tile, a cone–sphere test against the support cone, a band–sphere test for sub-sources and,
+for Type C tables, the tile's cone of directions against the table's cells that hold light
+(:class:`_Support`: a washer's light is nowhere near round); then, per tile, one dense block
+of (sources × points) tests for facing, cone and band; then the kernel, whose zero is the
+last test: a shadow ray only for a pair with light (docs/radiosity.md, "Direct light at
+scale").
 """
 
 from __future__ import annotations
@@ -35,6 +44,9 @@ _MAX_SUB = 32  # sub-sources per opening axis: beyond this a bar is closer than 
 _PAIRS_PER_CALL = 1 << 20  # pairs per kernel call: one compiled shape per photometry
 _CULL_PAIRS = 1 << 18  # (source, tile) pairs per culling step
 _TILE = 256  # receiver points per culling tile
+_EXPAND = 1 << 20  # (source, point) pairs tested per dense culling block
+_MARGIN_DEG = 0.5  # added to a tile's angular radius: rounding, never a beam's edge
+_KEEP_ENTRIES = 1 << 24  # (source, tile) flags held at once: sources a tile-major pass covers
 
 
 class PairSet(eqx.Module):
@@ -225,14 +237,92 @@ class Tiles:
         return cls(order, offsets, centre, radius)
 
 
-def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi, response=None):
-    """``(source, point)`` pairs that can receive light: the point faces the source, lies in
-    the support cone of its beam (``cos_support`` per source) and (sub-sources) in its distance
-    band.
-
-    Whole tiles are rejected first by a cone–sphere and a band–sphere test, so a narrow spot
-    costs little more than the points it lights.
+class _Support:
+    """Where a Type C distribution can exceed ``threshold`` × its peak, as cells of its table:
+    a summed-area table of the cells any of whose four corners does, grown by one cell on
+    every side (the bilinear interpolant is zero on a cell whose corners all are, and the
+    growth absorbs a direction that lands one cell over by rounding). :meth:`may_light` then
+    answers for a whole cone of directions at once, exactly in rejecting: far tighter than the
+    support cone for a distribution whose light is not round (a washer's 110° × 24° beam
+    reaches γ 172° along the bar but only 58° towards the wall).
     """
+
+    def __init__(self, distribution, threshold: float = 0.0) -> None:
+        cd = np.asarray(distribution.candela, np.float64)
+        self.h = np.asarray(distribution.h_deg, np.float64)
+        self.v = np.asarray(distribution.v_deg, np.float64)
+        hot = cd > threshold * cd.max() if cd.max() > 0 else np.zeros(cd.shape, bool)
+        cell = hot[:-1, :-1] | hot[1:, :-1] | hot[:-1, 1:] | hot[1:, 1:]
+        grown = cell.copy()
+        grown[1:] |= cell[:-1]
+        grown[:-1] |= cell[1:]
+        grown[0] |= cell[-1]  # C wraps: the first and last cells are neighbours
+        grown[-1] |= cell[0]
+        g2 = grown.copy()
+        g2[:, 1:] |= grown[:, :-1]
+        g2[:, :-1] |= grown[:, 1:]
+        self.sat = np.zeros((g2.shape[0] + 1, g2.shape[1] + 1), np.int64)
+        self.sat[1:, 1:] = np.cumsum(np.cumsum(g2, axis=0), axis=1)
+
+    @classmethod
+    def of(cls, distribution, threshold: float = 0.0) -> _Support | None:
+        """The support of a Type C table over the whole C circle (0–360°); ``None`` for
+        other types, whose tiles keep the support cone alone."""
+        h = np.asarray(distribution.h_deg)
+        if distribution.photometric_type != "C" or h[0] != 0.0 or h[-1] != 360.0:
+            return None
+        return cls(distribution, threshold)
+
+    def _count(self, i0, i1, j0, j1):
+        """Hot cells in rows i0..i1 and columns j0..j1 (inclusive; 0 where empty)."""
+        s = self.sat
+        n = s[i1 + 1, j1 + 1] - s[i0, j1 + 1] - s[i1 + 1, j0] + s[i0, j0]
+        return np.where((i1 >= i0) & (j1 >= j0), n, 0)
+
+    def _cells(self, grid, lo, hi):
+        """Inclusive cell range of ``grid`` that the angles ``[lo, hi]`` (deg) touch."""
+        last = len(grid) - 2
+        return (np.clip(np.searchsorted(grid, lo, "right") - 1, 0, last),
+                np.clip(np.searchsorted(grid, hi, "left") - 1, 0, last))
+
+    def may_light(self, local, half_deg):
+        """Per row: can a direction within ``half_deg`` (deg) of the unit vector ``local``
+        (luminaire frame) get light? ``False`` is exact: every such direction's intensity is 0
+        (at most the threshold)."""
+        x, y, z = local.T
+        gamma = np.degrees(np.arctan2(np.hypot(x, y), -z))
+        c = np.mod(np.degrees(np.arctan2(y, x)), 360.0)
+        g_lo, g_hi = gamma - half_deg, gamma + half_deg
+        pole = (g_lo <= 0.0) | (g_hi >= 180.0)
+        # azimuth half-width of a cap that holds no pole: asin(sin α / sin γ)
+        sg = np.sin(np.radians(np.clip(gamma, 1e-9, 180.0 - 1e-9)))
+        ratio = np.sin(np.radians(np.minimum(half_deg, 90.0))) / sg
+        dc = np.where(pole | (ratio >= 1.0) | (half_deg >= 90.0), 180.0,
+                      np.degrees(np.arcsin(np.clip(ratio, 0.0, 1.0))))
+        j0, j1 = self._cells(self.v, np.maximum(g_lo, self.v[0]), np.minimum(g_hi, self.v[-1]))
+        j1 = np.where((g_hi < self.v[0]) | (g_lo > self.v[-1]), j0 - 1, j1)  # off the table
+        h0, h1 = self.h[0], self.h[-1]
+        span = h1 - h0
+        full = dc >= 180.0
+        lo = np.where(full, h0, c - dc)
+        hi = np.where(full, h1, c + dc)
+        n = np.zeros(len(local), np.int64)
+        for shift in (-span, 0.0, span):  # the C range and its wrapped images
+            a, b = np.maximum(lo + shift, h0), np.minimum(hi + shift, h1)
+            i0, i1 = self._cells(self.h, a, b)
+            n += self._count(i0, np.where(b >= a, i1, i0 - 1), j0, j1)
+        return n > 0
+
+
+def _tile_keep(tiles, pos, axis, cos_support, centre, d_lo, d_hi, support=None, rotation=None,
+               fixed=None):
+    """``(sources, tiles)``: may the tile hold a point that receives the source's light?
+
+    A cone–sphere test (angle to the tile's centre minus its angular radius within the support
+    cone), for sub-sources a band–sphere test, and with ``support`` (a :class:`_Support`; rows
+    ``fixed``, i.e. not re-aimed, with world-from-local ``rotation``) the tile's cone of
+    directions against the table's cells with light. Exact in rejecting: a rejected tile's
+    every point fails the per-pair tests of :func:`_tile_pairs` or gets no light at all."""
     v = tiles.centre[None, :, :] - pos[:, None, :]  # (src, tiles, 3)
     dist = np.linalg.norm(v, axis=2)
     r = tiles.radius[None, :]
@@ -245,26 +335,54 @@ def _candidates(tiles, pts, nrm, pos, axis, cos_support, centre, d_lo, d_hi, res
     if centre is not None:
         dc = np.linalg.norm(tiles.centre[None, :, :] - centre[:, None, :], axis=2)
         keep &= (dc + r >= d_lo[:, None]) & (dc - r < d_hi[:, None])
-    src_out, pt_out = [], []
-    for li in np.flatnonzero(keep.any(axis=1)):
-        sel = np.flatnonzero(keep[li])
-        idx = np.concatenate([tiles.order[tiles.offsets[t]:tiles.offsets[t + 1]] for t in sel])
-        d = pts[idx] - pos[li]
-        rr = np.sqrt(np.einsum("pk,pk->p", d, d))
-        # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
-        # 1 µm model and nothing at all at site coordinates
-        faces = (np.einsum("pk,pk->p", d, nrm[idx]) < 0) if response is None else (
-            response.factor(d / np.maximum(rr, np.finfo(np.float64).tiny)[:, None], idx) > 0)
-        ok = faces & (d @ axis[li] >= (cos_support[li] - 1e-9) * rr)
-        if centre is not None:
-            rc = np.linalg.norm(pts[idx] - centre[li], axis=1)
-            ok &= (rc >= d_lo[li]) & (rc < d_hi[li])
-        hit = idx[ok]
-        src_out.append(np.full(len(hit), li, np.int32))
-        pt_out.append(hit.astype(np.int32))
-    if not src_out:
-        return np.zeros(0, np.int32), np.zeros(0, np.int32)
-    return np.concatenate(src_out), np.concatenate(pt_out)
+    if support is not None:
+        # the tile's cone of directions against the table's cells where light can be
+        li, ti = np.nonzero(keep & (dist > r) & fixed[:, None])
+        if len(li):
+            dd = dist[li, ti]
+            local = np.einsum("kij,ki->kj", rotation[li], v[li, ti] / dd[:, None])
+            half = np.degrees(np.arcsin(np.minimum(tiles.radius[ti] / dd, 1.0))) + _MARGIN_DEG
+            keep[li, ti] = support.may_light(local, half)
+    return keep
+
+
+def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, response):
+    """The pairs of sources ``rows`` (indices into ``batch``) and tile ``t``'s points that can
+    receive light: the point faces the source, lies in the support cone of its beam
+    (``cos_support`` per source) and (sub-sources) in its distance band; with their geometry
+    (:func:`_geometry`). ``pts``/``nrm`` are in tile order, so a tile is one slice.
+
+    The tests run on one dense ``(sources, tile points)`` block, coordinate by coordinate
+    (broadcast arithmetic: no per-pair gather, no BLAS call, whose threads only contend on a
+    busy machine); the offsets and band distances are the same float64 operations as on
+    gathered pairs, so the pairs kept and their geometry are too.
+    """
+    a, b = tiles.offsets[t], tiles.offsets[t + 1]
+    p, n = pts[a:b].T, nrm[a:b]  # (3, points)
+    s = batch.position[rows][:, :, None]  # (rows, 3, 1)
+    dx, dy, dz = p[0] - s[:, 0], p[1] - s[:, 1], p[2] - s[:, 2]  # receiver − source
+    ax = axis[rows][:, :, None]
+    rr = np.sqrt(dx * dx + dy * dy + dz * dz)
+    # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
+    # 1 µm model and nothing at all at site coordinates
+    ok = dx * ax[:, 0] + dy * ax[:, 1] + dz * ax[:, 2] >= (cos_support[rows] - 1e-9)[:, None] * rr
+    if response is None:
+        ok &= dx * n[:, 0] + dy * n[:, 1] + dz * n[:, 2] < 0
+    if banded:
+        cen = batch.centre[rows][:, :, None]
+        cx, cy, cz = p[0] - cen[:, 0], p[1] - cen[:, 1], p[2] - cen[:, 2]
+        rc = np.sqrt(cx * cx + cy * cy + cz * cz)  # = np.linalg.norm of the gathered offsets
+        ok &= (rc >= batch.lo[rows][:, None]) & (rc < batch.hi[rows][:, None])
+    si, pi = np.nonzero(ok)
+    src = rows[si]
+    rcv = tiles.order[a + pi]
+    off = np.stack([dx[si, pi], dy[si, pi], dz[si, pi]], axis=1)
+    if response is not None:  # a sensor's own response decides which side it reads
+        rk = np.sqrt(np.einsum("pk,pk->p", off, off))
+        f = response.factor(off / np.maximum(rk, np.finfo(np.float64).tiny)[:, None], rcv) > 0
+        src, rcv, off, pi = src[f], rcv[f], off[f], pi[f]
+    w, gain = _geometry(off, n[pi], batch.scale[src], response, rcv)
+    return src, rcv, w, gain
 
 
 def _bucket(n: int) -> int:
@@ -320,43 +438,68 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     rot_j = to_device(rot_all)  # numpy → device without an eager kernel (_jit_cache.to_device)
     widen = np.zeros(len(sel)) if widen is None else np.asarray(widen, np.float64)
     tiles = Tiles.build(points)
+    pts_t, nrm_t = points[tiles.order], normals[tiles.order]  # tile order: a tile is a slice
+    n_tiles = max(len(tiles.radius), 1)
+    widened = bool(np.any(widen > 0))
     for batch in _point_sources(scene, sel):
         dist = scene.photometries[batch.photometry].distribution
         half = np.arccos(np.clip(support_cosine(dist, threshold), -1.0, 1.0))
         cos_src = np.cos(np.minimum(half + widen[batch.luminaire], np.pi))
         axis = -rot_all[batch.luminaire, :, 2]  # photometric axis (local −z) of each row
         banded = bool(np.any(batch.lo > 0) or np.any(np.isfinite(batch.hi)))
-        per_cull = max(1, _CULL_PAIRS // max(len(tiles.radius), 1))
-        pending: list[tuple[np.ndarray, np.ndarray]] = []
+        support = _Support.of(dist, threshold)
+        rotation = rot_all[batch.luminaire]
+        fixed = widen[batch.luminaire] <= 0  # a row the optimiser may turn keeps its cone
+        per_cull = max(1, _CULL_PAIRS // n_tiles)
+        per_keep = max(per_cull, _KEEP_ENTRIES // n_tiles)
+        pending: list[tuple[np.ndarray, ...]] = []
         pending_n = 0
         n_src = len(batch.position)
-        for c0 in range(0, n_src, per_cull):
+        for c0 in range(0, n_src, per_keep):
             t0 = time.perf_counter()
-            s = slice(c0, c0 + per_cull)
-            i, j = _candidates(tiles, points, normals, batch.position[s], axis[s], cos_src[s],
-                               batch.centre[s] if banded else None, batch.lo[s], batch.hi[s],
-                               response)
+            # which tiles each source row may light, then tile by tile the pairs of the rows
+            # that keep it: a tile's points are one slice, every source in a block its row
+            keep = np.concatenate([
+                _tile_keep(tiles, batch.position[s], axis[s], cos_src[s],
+                           batch.centre[s] if banded else None, batch.lo[s], batch.hi[s],
+                           support, rotation[s], fixed[s])
+                for s in (slice(k, min(k + per_cull, n_src))
+                          for k in range(c0, min(c0 + per_keep, n_src), per_cull))])
             timing["cull"] += time.perf_counter() - t0
-            pending.append((i + c0, j))
-            pending_n += len(i)
-            stats.candidate_pairs += len(i)
-            if pending_n < _PAIRS_PER_CALL and c0 + per_cull < n_src:
-                continue
-            src = np.concatenate([p[0] for p in pending]).astype(np.int64)
-            rcv = np.concatenate([p[1] for p in pending]).astype(np.int64)
-            pending, pending_n = [], 0
-            for p0 in range(0, len(src), _PAIRS_PER_CALL):
-                yield _chunk(batch, dist, src[p0:p0 + _PAIRS_PER_CALL],
-                             rcv[p0:p0 + _PAIRS_PER_CALL], points, normals, rot_j, caster,
-                             bool(np.any(widen > 0)), stats, timing, response)
+            for t in np.flatnonzero(keep.any(axis=0)):
+                rows = c0 + np.flatnonzero(keep[:, t])
+                step = max(1, _EXPAND // max(int(tiles.offsets[t + 1] - tiles.offsets[t]), 1))
+                for r0 in range(0, len(rows), step):
+                    t0 = time.perf_counter()
+                    part = _tile_pairs(t, rows[r0:r0 + step], tiles, pts_t, nrm_t, batch, axis,
+                                       cos_src, banded, response)
+                    timing["cull"] += time.perf_counter() - t0
+                    pending.append(part)
+                    pending_n += len(part[0])
+                    stats.candidate_pairs += len(part[0])
+                    if pending_n >= _PAIRS_PER_CALL:
+                        yield from _flush(pending, batch, dist, points, rot_j, caster, widened,
+                                          stats, timing)
+                        pending, pending_n = [], 0
+        yield from _flush(pending, batch, dist, points, rot_j, caster, widened, stats, timing)
 
 
-def _chunk(batch, dist, s_idx, r_idx, points, normals, rot_j, caster, all_rays, stats,
-           timing, response=None) -> PairChunk:
-    """Geometry, start light and shadow rays of one batch of candidate pairs."""
+def _flush(pending, batch, dist, points, rot_j, caster, all_rays, stats, timing):
+    """The chunks (at most ``_PAIRS_PER_CALL`` pairs each) of the pending candidate pairs."""
+    if not pending:
+        return
+    src, rcv, w, gain = (np.concatenate([p[k] for p in pending]) for k in range(4))
+    for p0 in range(0, len(src), _PAIRS_PER_CALL):
+        s = slice(p0, p0 + _PAIRS_PER_CALL)
+        yield _chunk(batch, dist, src[s].astype(np.int64), rcv[s].astype(np.int64), w[s],
+                     gain[s], points, rot_j, caster, all_rays, stats, timing)
+
+
+def _chunk(batch, dist, s_idx, r_idx, w, gain, points, rot_j, caster, all_rays, stats,
+           timing) -> PairChunk:
+    """Start light and shadow rays of one batch of candidate pairs (directions ``w`` and gains
+    from :func:`_geometry`)."""
     t0 = time.perf_counter()
-    w, gain = _geometry(points[r_idx] - batch.position[s_idx], normals[r_idx],
-                        batch.scale[s_idx], response, r_idx)
     lum = batch.luminaire[s_idx]
     n = len(s_idx)
     pad = _bucket(n) - n
