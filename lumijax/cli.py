@@ -177,19 +177,21 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
             results = compute(study, shadows=shadows, progress=update, cache_dir=cache_dir,
                               scheduler=scheduler)
         marks["compute"] = time.perf_counter() - t
-        stored_patches = None
+        stored_patches = None  # a full run's patch arrays, figured while the files are written
         if kept is not None:  # the next run that changes only dimmers reads this back
             from ._stored import MAX_PATCH_BYTES, store_solution
 
             t = time.perf_counter()
-            if not quick and results.lighting.coarse.patches is not None:
-                from .report._vtk import patch_arrays
+            if quick or results.lighting.coarse.patches is None:
+                store_solution(results, *kept)
+            else:
+                from .report._vtk import patch_arrays, patch_bytes
+                from .report._write import _in_thread
 
-                stored_patches = patch_arrays(results.lighting, max_bytes=MAX_PATCH_BYTES)
-                if stored_patches is None:  # too large to keep: this study always computes
-                    kept = None
-            if kept is not None:
-                store_solution(results, *kept, patches=stored_patches)
+                if patch_bytes(results.lighting) > MAX_PATCH_BYTES:
+                    kept = None  # too large to keep: this study always computes
+                else:  # one operator product per network: in a thread, as the maps draw
+                    stored_patches = _in_thread(patch_arrays, results.lighting)
             marks["store"] = time.perf_counter() - t
         stages = dict(results.timing_s)  # the compute's (a fit that re-aims computes again)
         if optimise and study.config.optimise is not None:
@@ -202,6 +204,10 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         paths = write_results(results, rs, images=images, timings=marks, patches=not quick,
                               stored_patches=stored_patches)
         marks["write"] = time.perf_counter() - t
+        if stored_patches is not None and kept is not None:
+            t = time.perf_counter()
+            store_solution(results, *kept, patches=stored_patches.result())
+            marks["store"] += time.perf_counter() - t
         _summary_table(results.study, results.grids, console)
         if results.optimisation is not None:
             _optimisation_table(results.optimisation, console)

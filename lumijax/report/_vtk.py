@@ -16,7 +16,7 @@ import numpy as np
 
 from .._atomic import atomic_path
 
-__all__ = ["write_patches_vtp", "patch_arrays", "write_stored_patches_vtp",
+__all__ = ["write_patches_vtp", "patch_arrays", "patch_bytes", "write_stored_patches_vtp",
            "triangles_vtp"]
 
 
@@ -34,22 +34,19 @@ def write_patches_vtp(lighting, dimmers, path: str | Path, illuminance=None) -> 
     """
     d = np.asarray(dimmers, np.float64)
     arrays = patch_arrays(lighting, per_network_illuminance=False)
-    assert arrays is not None  # (no max_bytes)
     if illuminance is None:
         illuminance = lighting.display_patch_illuminance_at(d)
     return _write(arrays, d, illuminance, path)
 
 
-def patch_arrays(lighting, *, per_network_illuminance: bool = True,
-                 max_bytes: int | None = None) -> dict[str, np.ndarray] | None:
+def patch_arrays(lighting, *, per_network_illuminance: bool = True) -> dict[str, np.ndarray]:
     """What patches.vtp is made of, none of it at a dimmer: ``vertices`` (3n, 3) m,
     ``radiosity`` (net, n) lm/m² and ``direct`` (net, n) lx at dimmer 1, ``reflectance``,
     ``material``, ``networks`` (names), ``xyz`` (net, 3, n) after a spectral solve and, with
     ``per_network_illuminance``, ``illuminance`` (net, n) lx: each network's irradiance at
     dimmer 1, from one operator product per network (the shape of the product at the dimmers,
     so nothing new compiles). A dimmer-only rerun (``lumijax._stored``) writes the file from
-    these with :func:`write_stored_patches_vtp`, with no JAX. None where they would take more
-    than ``max_bytes`` (checked before any product)."""
+    these with :func:`write_stored_patches_vtp`, with no JAX."""
     p = lighting.display.patches  # the fine patches of a two-level solve
     k = len(lighting.scene.network_names)
     arrays = {
@@ -62,13 +59,17 @@ def patch_arrays(lighting, *, per_network_illuminance: bool = True,
     }
     if lighting.display.radiosity_xyz is not None:
         arrays["xyz"] = np.asarray(lighting.display.radiosity_xyz)
-    if max_bytes is not None and (sum(a.nbytes for a in arrays.values())
-                                  + 8 * k * p.n * per_network_illuminance > max_bytes):
-        return None
     if per_network_illuminance:
         rows = [np.asarray(lighting.display_patch_illuminance_at(e)) for e in np.eye(k)]
         arrays["illuminance"] = np.stack(rows) if rows else np.zeros((0, p.n))
     return arrays
+
+
+def patch_bytes(lighting) -> int:
+    """The bytes :func:`patch_arrays` takes, found without its operator products."""
+    arrays = patch_arrays(lighting, per_network_illuminance=False)
+    k, n = arrays["radiosity"].shape
+    return sum(a.nbytes for a in arrays.values()) + 8 * k * n
 
 
 def write_stored_patches_vtp(arrays: dict[str, np.ndarray], dimmers,

@@ -189,7 +189,8 @@ def _write_text(staging: Path, rel: str, text: str) -> None:
 
 def write_results(results: Results, out: str | Path | ResultSet, *, images: bool = True,
                   timings: dict[str, float] | None = None, patches: bool = True,
-                  stored_patches: dict[str, np.ndarray] | None = None) -> dict[str, Path]:
+                  stored_patches: dict[str, np.ndarray] | _in_thread | None = None
+                  ) -> dict[str, Path]:
     """Write results as one set and return the paths (in the output folder) of the files.
 
     ``out``: a folder (created if needed; the set is swapped in before this returns), or an open
@@ -205,7 +206,8 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
     --timings``). ``patches=False``: no ``patches.vtp`` (``lumijax run --quick``: the numbers
     the iterate loop reads, as a dimmer-only rerun writes them). ``stored_patches``: the
     arrays of patches.vtp kept for dimmer-only reruns (``report._vtk.patch_arrays``): the file
-    is written from them, by the code a rerun writes it with, so the two are the same bytes.
+    is written from them, by the code a rerun writes it with, so the two are the same bytes
+    (or an :class:`_in_thread` figuring them, waited for when the file is written).
     """
     if not isinstance(out, ResultSet):
         with ResultSet(out) as rs:
@@ -256,6 +258,8 @@ def write_results(results: Results, out: str | Path | ResultSet, *, images: bool
         if timings is not None:
             timings["images"] = time.perf_counter() - t_images
         if patches and stored_patches is not None:
+            if isinstance(stored_patches, _in_thread):
+                stored_patches = stored_patches.result()
             _write_stored_vtp(staging, stored_patches, results.design.dimmers, written)
         elif vtp_lux is not None:
             _write_vtp(staging, lighting, results.design.dimmers, written, vtp_lux.result())
