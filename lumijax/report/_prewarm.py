@@ -16,6 +16,7 @@ that fails here is left for the drawing code to report as it always has.
 
 from __future__ import annotations
 
+import atexit
 import importlib
 import os
 import threading
@@ -62,4 +63,7 @@ def start(photometries=None) -> threading.Thread | None:
     t = threading.Thread(target=_prewarm, args=(photometries,), name="lumijax-prewarm",
                          daemon=True)
     t.start()
+    # a run shorter than the imports waits for them at exit: a daemon thread stopped inside
+    # an extension module's initialisation can crash the interpreter's shutdown
+    atexit.register(t.join, 120)
     return t
