@@ -315,17 +315,20 @@ class _Support:
 
 
 def _tile_keep(tiles, pos, axis, cos_support, centre, d_lo, d_hi, support=None, rotation=None,
-               fixed=None):
+               fixed=None, grow: float = 0.0):
     """``(sources, tiles)``: may the tile hold a point that receives the source's light?
 
     A cone–sphere test (angle to the tile's centre minus its angular radius within the support
     cone), for sub-sources a band–sphere test, and with ``support`` (a :class:`_Support`; rows
     ``fixed``, i.e. not re-aimed, with world-from-local ``rotation``) the tile's cone of
     directions against the table's cells with light. Exact in rejecting: a rejected tile's
-    every point fails the per-pair tests of :func:`_tile_pairs` or gets no light at all."""
+    every point fails the per-pair tests of :func:`_tile_pairs` or gets no light at all.
+    ``grow`` (m) widens every tile's sphere: the tests then hold for any source within that
+    distance of ``pos`` (a luminaire's sub-sources, tested once at its centre). Also returns
+    the distances source → tile centre (m)."""
     v = tiles.centre[None, :, :] - pos[:, None, :]  # (src, tiles, 3)
     dist = np.linalg.norm(v, axis=2)
-    r = tiles.radius[None, :]
+    r = tiles.radius[None, :] + grow
     # angle to the tile centre minus the tile's angular radius must be within the cone
     cos_c = np.einsum("ltk,lk->lt", v, axis) / np.maximum(dist, 1e-300)
     ang = np.arccos(np.clip(cos_c, -1.0, 1.0)) - np.arcsin(np.clip(r / np.maximum(dist, 1e-300),
@@ -341,8 +344,33 @@ def _tile_keep(tiles, pos, axis, cos_support, centre, d_lo, d_hi, support=None, 
         if len(li):
             dd = dist[li, ti]
             local = np.einsum("kij,ki->kj", rotation[li], v[li, ti] / dd[:, None])
-            half = np.degrees(np.arcsin(np.minimum(tiles.radius[ti] / dd, 1.0))) + _MARGIN_DEG
-            keep[li, ti] = support.may_light(local, half)
+            half = np.degrees(np.arcsin(np.minimum((tiles.radius[ti] + grow) / dd, 1.0)))
+            keep[li, ti] = support.may_light(local, half + _MARGIN_DEG)
+    return keep, dist
+
+
+def _banded_keep(tiles, batch, c0, c1, axis, cos_src, support, rotation, fixed, per_cull):
+    """:func:`_tile_keep` of sub-source rows ``c0:c1``: the cone and support tests once per
+    luminaire, at its centre with every tile grown by the farthest sub-source's offset (the
+    sub-sources of a 0.8 m bar are 63 rows, one per piece of each distance band), then per row
+    only its band against the distance from the luminaire's centre."""
+    lum = batch.luminaire[c0:c1]
+    _, first, inv = np.unique(lum, return_index=True, return_inverse=True)
+    first = c0 + first
+    grow = float(np.max(np.linalg.norm(batch.position[c0:c1] - batch.centre[c0:c1], axis=1)))
+    parts = [_tile_keep(tiles, batch.centre[s], axis[s], cos_src[s], None, None, None, support,
+                        rotation[s], fixed[s], grow)
+             for s in (first[k:k + per_cull] for k in range(0, len(first), per_cull))]
+    keep_l = np.concatenate([q[0] for q in parts])
+    dist_l = np.concatenate([q[1] for q in parts])
+    del parts
+    r = tiles.radius[None, :]
+    keep = np.empty((c1 - c0, len(tiles.radius)), bool)
+    for k in range(0, c1 - c0, per_cull):  # per row: the band (the same test as per source)
+        i = inv[k:k + per_cull]
+        dc = dist_l[i]
+        keep[k:k + per_cull] = keep_l[i] & (dc + r >= batch.lo[c0 + k:c0 + k + per_cull, None]) \
+            & (dc - r < batch.hi[c0 + k:c0 + k + per_cull, None])
     return keep
 
 
@@ -459,12 +487,12 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
             t0 = time.perf_counter()
             # which tiles each source row may light, then tile by tile the pairs of the rows
             # that keep it: a tile's points are one slice, every source in a block its row
-            keep = np.concatenate([
-                _tile_keep(tiles, batch.position[s], axis[s], cos_src[s],
-                           batch.centre[s] if banded else None, batch.lo[s], batch.hi[s],
-                           support, rotation[s], fixed[s])
-                for s in (slice(k, min(k + per_cull, n_src))
-                          for k in range(c0, min(c0 + per_keep, n_src), per_cull))])
+            c1 = min(c0 + per_keep, n_src)
+            keep = (_banded_keep(tiles, batch, c0, c1, axis, cos_src, support, rotation, fixed,
+                                 per_cull) if banded else np.concatenate([
+                _tile_keep(tiles, batch.position[s], axis[s], cos_src[s], None, None, None,
+                           support, rotation[s], fixed[s])[0]
+                for s in (slice(k, min(k + per_cull, c1)) for k in range(c0, c1, per_cull))]))
             timing["cull"] += time.perf_counter() - t0
             for t in np.flatnonzero(keep.any(axis=0)):
                 rows = c0 + np.flatnonzero(keep[:, t])
