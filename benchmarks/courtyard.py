@@ -3,8 +3,10 @@
     python benchmarks/courtyard.py                        # full scale: 4 × 40 bays, 3,000 lights
     python benchmarks/courtyard.py --bays 10 --target-patches 20000   # a quarter, to extrapolate
     python benchmarks/courtyard.py --operator-patches 0   # one level (the dense P² operator)
-    python benchmarks/courtyard.py --operator-patches 0 --transport sampled --target-patches 200000
-                                       # one level, ray-sampled form factors (docs/radiosity.md)
+    python benchmarks/courtyard.py --operator-patches 0 --transport sampled
+                                       # one level, ray-sampled form factors (docs/radiosity.md):
+                                       # 200,114 patches at LoD 0 (the default target 140,000;
+                                       # the columns' slivers add the rest), 256 rays a patch
 
 Generates the study (studies/courtyard/make_courtyard.py) into a temporary folder, then runs the
 stages of ``lumijax.compute`` one after the other in this process: load (config + scene), then
