@@ -167,10 +167,11 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         marks["import"] = time.perf_counter() - t  # JAX and the compute's modules
 
         study = study_of(cfg, config_s=config_s)
+        prewarm = None
         if images or report:  # pyvista, matplotlib, polar curves: while the numbers compute
             from .report._prewarm import start
 
-            start(study.scene.photometries if report else None)
+            prewarm = start(study.scene.photometries if report else None)
         progress, update = _progress_bar(console, "lighting")
         t = time.perf_counter()
         with progress:
@@ -201,6 +202,8 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
             results = fit(study, results, cache_dir=cache_dir).results
             marks["optimise"] = time.perf_counter() - t
         t = time.perf_counter()
+        if prewarm is not None:  # drawing must not start inside a half-done import of pyvista
+            prewarm.join()     # or matplotlib (another thread's module is seen half made)
         paths = write_results(results, rs, images=images, timings=marks, patches=not quick,
                               stored_patches=stored_patches)
         marks["write"] = time.perf_counter() - t
