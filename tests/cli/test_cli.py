@@ -76,6 +76,7 @@ def test_failure_while_writing_leaves_previous_results_untouched(box_room, write
     before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
 
     import lumijax.report
+    import lumijax.report._falsecolour as falsecolour  # a lazy package: import it by name
     from lumijax.errors import OutputError
 
     def broken(*args, **kwargs):
@@ -84,7 +85,7 @@ def test_failure_while_writing_leaves_previous_results_untouched(box_room, write
         raise OutputError("disk full", file=out / "report.html")
 
     if stage == "map":
-        monkeypatch.setattr(lumijax.report._falsecolour, "falsecolour_map", broken)
+        monkeypatch.setattr(falsecolour, "falsecolour_map", broken)
     else:
         monkeypatch.setattr(lumijax.report, "write_report", broken)
     cfg2 = write_study(box_room.replace("dimmer = 0.5", "dimmer = 0.1"), "other.toml")
