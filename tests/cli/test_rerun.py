@@ -5,14 +5,11 @@ importing JAX, and gives what a fresh computation gives."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import box_room, mesh, study_text
+from helpers import box_room, mesh, run_in_new_process_without_jax, study_text
 
 from lumijax._stored import solution_key, solution_path
 from lumijax.cli import main
@@ -39,14 +36,7 @@ def test_a_dimmer_only_rerun_equals_a_fresh_computation_and_imports_no_jax(tmp_p
     assert "solution_reused" not in _doc(out)["solver"]
     study.write_text(box_room(SOLVER, dimmer_a=0.2), encoding="utf-8")
     # a new process, as a user runs it: it must answer without importing JAX at all
-    code = ("import sys; from lumijax.cli import main; "
-            f"rc = main(['run', {str(study)!r}, '--out', {str(out)!r}, '--quick']); "
-            "print('JAX', 'jax' in sys.modules); sys.exit(rc)")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=300, env=dict(os.environ, JAX_PLATFORMS="cpu"))
-    assert proc.returncode == 0, proc.stderr
-    assert "JAX False" in proc.stdout
-    rerun = _doc(out)
+    rerun = run_in_new_process_without_jax(study, out, "--quick")
     assert rerun["solver"]["solution_reused"] is True
     assert rerun["networks"]["a"]["dimmer"] == 0.2
     assert sorted(p.name for p in out.iterdir()) == ["grids", "results.json"]

@@ -9,14 +9,12 @@ import base64
 import json
 import os
 import re
-import subprocess
-import sys
 import zlib
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import box_room
+from helpers import box_room, run_in_new_process_without_jax
 
 import lumijax
 from lumijax import load_study
@@ -90,14 +88,7 @@ def test_a_full_numbers_rerun_equals_a_full_computation_and_imports_no_jax(tmp_p
     assert "solution_reused" not in _doc(out)["solver"]
     _write(study, dimmer_a=0.7)
     # a new process, as a user runs it: it must answer without importing JAX at all
-    code = ("import sys; from lumijax.cli import main; "
-            f"rc = main(['run', {str(study)!r}, '--out', {str(out)!r}, *{NUMBERS!r}]); "
-            "print('JAX', 'jax' in sys.modules); sys.exit(rc)")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=300, env=dict(os.environ, JAX_PLATFORMS="cpu"))
-    assert proc.returncode == 0, proc.stderr
-    assert "JAX False" in proc.stdout
-    rerun = _doc(out)
+    rerun = run_in_new_process_without_jax(study, out, *NUMBERS)
     assert rerun["solver"]["solution_reused"] is True
     assert rerun["networks"]["a"]["dimmer"] == 0.7
     assert sorted(p.name for p in out.iterdir()) == ["grids", "patches.vtp", "results.json"]
