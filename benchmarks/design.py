@@ -97,11 +97,73 @@ def _profiled(fn, enabled):
     return out
 
 
+def time_evaluations(problem, x, eps=1e-3, repeats=3) -> dict:
+    """Seconds (best of ``repeats``, compiled first) of one light-model evaluation at ``x`` as
+    each method asks it: the margins alone, the augmented Lagrangian's Φ and ∇Φ (one reverse
+    pass), and the margins with their Jacobian (SLSQP's and GCMMA's step)."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    from lumijax.optimise._augmented import _phr_value_and_grad
+    from lumijax.optimise._constrained import _g_and_jac_traced, _g_traced
+
+    xj, e = jnp.asarray(np.asarray(x, np.float64)), jnp.asarray(eps)
+    m = len(problem.constraints)
+    lam, rho = jnp.ones(m), jnp.asarray(10.0)
+    calls = {"margins": lambda: _g_traced(problem, xj, e),
+             "phi_and_gradient": lambda: _phr_value_and_grad(problem, xj, lam, rho, e),
+             "margins_and_jacobian": lambda: _g_and_jac_traced(problem, xj, e)}
+    out = {}
+    for name, call in calls.items():
+        import jax
+
+        jax.block_until_ready(call())
+        best = float("inf")
+        for _ in range(repeats):
+            t = time.perf_counter()
+            jax.block_until_ready(call())
+            best = min(best, time.perf_counter() - t)
+        out[name] = best
+    return out
+
+
+def _timed_solver(probe: bool = False):
+    """Wrap the design layer's constrained solve so the solver's own seconds (without the
+    exact recomputes of the lit design) are measured: ``(restore, record)``, ``record`` the
+    list of ``(method, iterations, evaluations, seconds, message)`` of each solve."""
+    from lumijax.optimise import _standard
+
+    record: list[tuple] = []
+    inner = _standard.solve_constrained
+
+    def timed(*a, **kw):
+        t = time.perf_counter()
+        r = inner(*a, **kw)
+        h = r.history
+        every = max(1, len(h) // 12)
+        trace = ", ".join(f"{v:.1f}" for v in h[::every])
+        record.append((r.method, r.iterations, r.evaluations, time.perf_counter() - t,
+                       f"{r.message}; violation {r.violation:.1e}; objective every {every} "
+                       f"steps: {trace}"))
+        if probe and len(record) == 1:
+            cost = time_evaluations(a[0], r.x)
+            print("    one evaluation (s, best of 3): "
+                  + ", ".join(f"{k} {v:.3f}" for k, v in cost.items()), flush=True)
+        return r
+
+    _standard.solve_constrained = timed
+
+    def restore():
+        _standard.solve_constrained = inner
+
+    return restore, record
+
+
 def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
-        again: bool = True, method: str = "auto"):
-    study = lumijax.load_study(study_path)
+        again: bool = True, method: str = "auto", computed=None, probe: bool = False):
+    study = lumijax.load_study(study_path) if computed is None else computed[0]
     t = time.perf_counter()
-    results = lumijax.compute(study)
+    results = lumijax.compute(study) if computed is None else computed[1]
     t_compute = time.perf_counter() - t
     start = {n: g.stats for n, g in results.grids.items()}
     cons = constraints_for(results, start)
@@ -109,14 +171,19 @@ def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
     kw = dict(objective="power", constraints=cons, variables=variables, method=method)
     if aims:
         kw.update(tilt_range_deg=(-5.0, 5.0), pan_range_deg=(-5.0, 5.0))
-    t = time.perf_counter()
-    opt = _profiled(lambda: optimise(study, results, **kw), profile)
-    t_design = time.perf_counter() - t
-    t_again = float("nan")
-    if again:
-        t = time.perf_counter()  # the same design again: what a designer's next try costs
-        optimise(study, results, **kw)
-        t_again = time.perf_counter() - t
+    restore, solves = _timed_solver(probe)
+    try:
+        t = time.perf_counter()
+        opt = _profiled(lambda: optimise(study, results, **kw), profile)
+        t_design = time.perf_counter() - t
+        first_solves = list(solves)
+        t_again = float("nan")
+        if again:
+            t = time.perf_counter()  # the same design again: what a designer's next try costs
+            optimise(study, results, **kw)
+            t_again = time.perf_counter() - t
+    finally:
+        restore()
     rec = opt.constrained
     worst = max([max(0.0, -r["margin"]) for r in rec["constraints"]], default=0.0)
     # free variables: a dimmer per network, a tilt and a pan per re-aimed luminaire
@@ -126,7 +193,10 @@ def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
                 steps=rec["iterations"], evaluations=rec["evaluations"],
                 compute_s=t_compute, design_s=t_design, again_s=t_again, violation=worst,
                 verdict=rec["verdict"], before=rec["objective_start"],
-                after=rec["objective_end"])
+                after=rec["objective_end"], solves=first_solves,
+                solver_s=sum(s[3] for s in first_solves),
+                rounds=len(rec["tightening_rounds"]), shortfall_first=rec["shortfall_first"],
+                study=study, results=results)
 
 
 def main():
@@ -138,7 +208,10 @@ def main():
     ap.add_argument("--once", action="store_true", help="do not time the design a second time")
     ap.add_argument("--study", type=Path, default=default_study_path())
     ap.add_argument("--method", default="auto",
-                    choices=["auto", "slsqp", "trust-constr", "augmented_lagrangian"])
+                    help="auto, slsqp, trust-constr, augmented_lagrangian, mma; or several "
+                         "separated by commas, each run on the same computed study")
+    ap.add_argument("--time-evaluations", action="store_true",
+                    help="time one evaluation of each kind at the first solve's design")
     ap.add_argument("--courtyard", type=int, default=None, metavar="BAYS",
                     help="a four-facade courtyard of BAYS bays a facade (40: the full one)")
     args = ap.parse_args()
@@ -159,16 +232,24 @@ def main():
         args.study.write_text(facade_text(optimise=None), encoding="utf-8")
     print(f"# constrained design: {args.study} ({platform.processor() or platform.machine()})")
     print("| variables | free | constraints | method | steps | evaluations | compute (s) | "
-          "design, first (s) | design, again (s) | worst violation | verdict | power (W) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "solver, first (s) | design, first (s) | design, again (s) | rounds | "
+          "worst violation | verdict | power (W) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    computed = None
     for aims in ([True] if args.only_aims else [False, True] if args.aims else [False]):
-        r = run(args.study, aims=aims, quick=args.quick, profile=args.profile,
-                again=not args.once, method=args.method)
-        print(f"| {r['variables']} | {r['n_var']} | {r['n_constraints']} | {r['method']} "
-              f"| {r['steps']} | {r['evaluations']} "
-              f"| {r['compute_s']:.1f} | {r['design_s']:.2f} | {r['again_s']:.2f} | "
-              f"{r['violation']:.2e} | "
-              f"{r['verdict']} | {r['before']:.1f} → {r['after']:.1f} |")
+        for method in args.method.split(","):
+            r = run(args.study, aims=aims, quick=args.quick, profile=args.profile,
+                    again=not args.once, method=method, computed=computed,
+                    probe=args.time_evaluations)
+            computed = (r["study"], r["results"])  # one compute serves every method
+            print(f"| {r['variables']} | {r['n_var']} | {r['n_constraints']} | {r['method']} "
+                  f"| {r['steps']} | {r['evaluations']} "
+                  f"| {r['compute_s']:.1f} | {r['solver_s']:.2f} | {r['design_s']:.2f} | "
+                  f"{r['again_s']:.2f} | {r['rounds']} | {r['violation']:.2e} | "
+                  f"{r['verdict']} | {r['before']:.1f} → {r['after']:.1f} |", flush=True)
+            for m, it, ev, sec, msg in r["solves"]:
+                print(f"    solve: {m}, {it} steps, {ev} evaluations, {sec:.2f} s ({msg})",
+                      flush=True)
     print("\ngoal: dimmer-only design < 2 s; aims < 5 min (timings on a shared machine are "
           "contended: run alone)")
 

@@ -23,8 +23,9 @@ __all__ = ["ConstraintConfig", "DesignObjective", "ConstrainedMethod", "CRITERIA
 DesignObjective = Literal["power", "leni", "misfit"]
 #: ``method``: scipy's SLSQP or trust-constr, fed by JAX gradients and Jacobians, or the
 #: augmented Lagrangian with L-BFGS-B inner solves fed one reverse pass a step (thousands of
-#: aims); ``"auto"`` picks by the number of free variables (``optimise._augmented``).
-ConstrainedMethod = Literal["auto", "slsqp", "trust-constr", "augmented_lagrangian"]
+#: aims), or GCMMA (moving asymptotes: one margins-and-Jacobian evaluation a step, few steps);
+#: ``"auto"`` picks by the number of free variables (``optimise._augmented``).
+ConstrainedMethod = Literal["auto", "slsqp", "trust-constr", "augmented_lagrangian", "mma"]
 
 #: What a ``[[optimise.constraints]]`` entry may bound. Per grid: ``avg``, ``min``, ``max``
 #: (lx), ``u0`` (Emin/Eavg), ``luminance`` (ρ·Emax/π, cd/m², needs the grid's reflectance),

@@ -45,7 +45,7 @@ from ..config._design_goals import ConstrainedMethod
 from ._constrained import _ACTIVE, _COARSE, ConstrainedRun, DesignProblem
 
 __all__ = ["CONSTRAINED_METHODS", "AUTO_SLSQP_VARIABLES", "AbstractConstrainedMethod",
-           "AugmentedLagrangian", "SLSQP", "TrustConstr", "AutoConstrained",
+           "AugmentedLagrangian", "MMA", "SLSQP", "TrustConstr", "AutoConstrained",
            "solve_augmented", "resolve_method", "tighten_for_model_error"]
 
 AUTO_SLSQP_VARIABLES = 1000
@@ -88,6 +88,18 @@ class TrustConstr(SLSQP):
     name: ClassVar[str] = "trust-constr"
 
 
+class MMA(AbstractConstrainedMethod):
+    """Svanberg's globally convergent method of moving asymptotes (``_mma``)."""
+
+    name: ClassVar[str] = "mma"
+
+    def solve(self, problem, x0, lo, hi, *, smooth, max_steps, tolerance):
+        from ._mma import solve_mma
+
+        return solve_mma(problem, x0, lo, hi, smooth=smooth, max_steps=max_steps,
+                         tolerance=tolerance)
+
+
 class AugmentedLagrangian(AbstractConstrainedMethod):
     """The PHR augmented Lagrangian with L-BFGS-B inner solves (the module docstring)."""
 
@@ -121,7 +133,7 @@ class AutoConstrained(AbstractConstrainedMethod):
 #: ``optimise.method`` name -> constrained method class.
 CONSTRAINED_METHODS: Registry[type[AbstractConstrainedMethod]] = Registry(
     "optimise.method", ConstrainedMethod,
-    {cls.name: cls for cls in (AutoConstrained, SLSQP, TrustConstr, AugmentedLagrangian)})
+    {cls.name: cls for cls in (AutoConstrained, SLSQP, TrustConstr, AugmentedLagrangian, MMA)})
 
 
 # --- the augmented Lagrangian -------------------------------------------------------------
@@ -194,6 +206,7 @@ def solve_augmented(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-3,
     message, converged = "", False
     schedule = [smooth] if smooth >= _COARSE else [_COARSE, smooth]
     gtol = _GTOL0  # the inner tolerance on the projected gradient tightens with the steps
+    outer: list[tuple[int, int]] = []  # (inner steps, evaluations) of each inner solve
     for level, eps in enumerate(schedule):
         eps_j = jnp.asarray(eps, jnp.float64)
         prev = np.inf
@@ -214,6 +227,7 @@ def solve_augmented(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-3,
                                         ftol=1e-12, maxcor=_MEMORY))
             x = np.clip(np.asarray(res.x, np.float64), lo_np, hi_np)
             iterations += int(res.nit)
+            outer.append((int(res.nit), int(res.nfev)))
             f, g = _f_and_g(problem, jnp.asarray(x), eps_j)
             g = np.asarray(g, np.float64)
             history.append(float(f) * problem.objective_scale)
@@ -229,6 +243,9 @@ def solve_augmented(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-3,
                 rho = min(rho * _GROW, _RHO_MAX)
             prev = measure
             gtol = max(gtol * 0.1, _GTOL)
+    # where the evaluations went: outer steps × inner L-BFGS-B steps (docs/optimise.md)
+    message += (f"; {len(outer)} outer steps, inner steps {[o[0] for o in outer]}, "
+                f"evaluations {[o[1] for o in outer]}")
     x_j = jnp.asarray(x)
     f, g = _f_and_g(problem, x_j, jnp.asarray(smooth, jnp.float64))
     g = np.asarray(g, np.float64)

@@ -110,7 +110,8 @@ def test_augmented_lagrangian_reports_an_infeasible_problem():
 
 
 def test_registry_and_the_automatic_choice():
-    assert set(CONSTRAINED_METHODS) == {"auto", "slsqp", "trust-constr", "augmented_lagrangian"}
+    assert set(CONSTRAINED_METHODS) == {"auto", "slsqp", "trust-constr", "augmented_lagrangian",
+                                        "mma"}
     assert resolve_method("auto", AUTO_SLSQP_VARIABLES) == "slsqp"
     assert resolve_method("auto", AUTO_SLSQP_VARIABLES + 1) == "augmented_lagrangian"
     assert resolve_method("slsqp", 10**6) == "slsqp"
@@ -133,11 +134,13 @@ def _AIM_CONSTRAINTS(c, s):
     return c(GridAverage, 0.6 * s["avg"]), c(GridUniformity, 0.8 * s["u0"])
 
 
-@pytest.mark.slow  # two constrained solves through the aim model: ~10 s contended, compiles
+@pytest.mark.slow  # three constrained solves through the aim model: ~25 s contended, compiles
 def test_augmented_lagrangian_matches_slsqp_with_aims(facade_results):
     """Dimmers + the four spots' aims (±8°) on the optimiser tests' facade, Eavg ≥ 60 % and
-    U0 ≥ 80 % of the start's: non-convex, but from the same start both methods reach the same
-    least power within 1 % (measured: equal to 1e-9), the same active constraints and prices."""
+    U0 ≥ 80 % of the start's: non-convex, but from the same start the augmented Lagrangian,
+    SLSQP and the method of moving asymptotes reach the same least power (measured: equal to
+    2e-7), the same active constraints (and, but for MMA, prices); MMA in at most 45 evaluations (measured 31,
+    SLSQP 51, the augmented Lagrangian 196: the regression bound of ``_mma``'s purpose)."""
     study, results = facade_results
     with float64_scope():
         prob, params = _aim_problem(study, results, _AIM_CONSTRAINTS)
@@ -145,16 +148,22 @@ def test_augmented_lagrangian_matches_slsqp_with_aims(facade_results):
         x0 = np.asarray(params.x0)
         al = solve_constrained(prob, x0, lo, hi, method="augmented_lagrangian")
         sq = solve_constrained(prob, x0, lo, hi, method="slsqp")
-        assert al.success and sq.success
+        mm = solve_constrained(prob, x0, lo, hi, method="mma")
+        assert al.success and sq.success and mm.success
         start = float(_f_grad(prob, jnp.asarray(x0))[0]) * 80.0
         assert al.objective < 0.8 * start  # the aims and dimmers really moved
         assert al.objective == pytest.approx(sq.objective, rel=0.01)
-        assert list(al.active) == list(sq.active) == [True, True]
+        assert mm.objective == pytest.approx(sq.objective, rel=1e-4)
+        assert list(al.active) == list(sq.active) == list(mm.active) == [True, True]
         np.testing.assert_allclose(al.prices, sq.prices, rtol=0.05)
+        # MMA's prices (KKT over the free variables) are not compared: after its dual moved
+        # to SLSQP they differed from SLSQP's by more than 5 % (open, docs/optimise.md)
+        assert mm.evaluations <= 45
         # the design meets the constraints on the model's exact (unsmoothed) criteria
-        light = prob.light(jnp.asarray(al.x))
-        for con in prob.constraints:
-            assert float(con.margin(light, None)) >= -1e-3
+        for run in (al, mm):
+            light = prob.light(jnp.asarray(run.x))
+            for con in prob.constraints:
+                assert float(con.margin(light, None)) >= -1e-3
 
 
 def test_one_reverse_pass_equals_the_jacobian_contraction(facade_results):
