@@ -34,6 +34,8 @@ __all__ = [
     "available_memory_bytes",
     "block_sizes",
     "bound_sampled_memory",
+    "solve_column_batch",
+    "solve_column_bytes",
     "check_operator_memory",
     "estimate_before_partition",
     "estimate_from_partition",
@@ -335,16 +337,22 @@ def check_before_meshing(vertices, group, size: float, *, element_size: float | 
 
 
 def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int = 4,
-                         available: int | None = None, file=None) -> OperatorEstimate:
+                         available: int | None = None, file=None,
+                         columns: int | None = None) -> OperatorEstimate:
     """Bound the ray-sampled operator (``_sampled.py``) before its first ray, or refuse it.
 
     Every ray a distinct link is the most it can store: ``(8 + itemsize)`` bytes (two int32
     indices and the weight) × rays × patches; the peak is twice that (the host arrays and
-    their device copy while the operator is assembled). Raises :class:`SolveError` naming the
+    their device copy while the operator is assembled). ``columns`` (networks × wavelengths):
+    the solve that follows counts too, the operator plus :func:`solve_memory_bytes` of its
+    smallest batch, when that is the larger. Raises :class:`SolveError` naming the
     ``rays_per_patch`` that would fit."""
     available = available_memory_bytes() if available is None else int(available)
     stored = (8 + itemsize) * int(n_patches) * int(rays_per_patch)
-    est = OperatorEstimate(int(n_patches), 1, 0, stored, 2 * stored, visible_only=False)
+    peak = 2 * stored
+    if columns is not None:
+        peak = max(peak, stored + solve_memory_bytes(n_patches, columns, 1, itemsize))
+    est = OperatorEstimate(int(n_patches), 1, 0, stored, peak, visible_only=False)
     if est.peak_bytes > available:
         fit = int(0.9 * available / (2 * (8 + itemsize) * max(int(n_patches), 1)))
         fix = (f"set [solver] rays_per_patch ≤ {fit:,}" if fit >= 16 else
@@ -354,3 +362,50 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
             f"need up to {_gib(est.peak_bytes)}, and {_gib(available)} of memory is "
             f"available: {fix}", file=file, key="solver.rays_per_patch")
     return est
+
+
+#: Patch-length vectors of the solve's precision alive per column while it runs (BiCGStab's and
+#: the refinement's state, the float64 true residual, the products' temporaries). Measured:
+#: the solve + gather stage of the LoD-0 courtyard rose 2.64 GiB for 144 float32 columns of
+#: 212,992 padded patches, 23.1 vectors a column (benchmarks/courtyard.py, session 9).
+SOLVE_VECTORS = 24
+
+#: Share of the available memory one batch of solve columns may take: the rest is for the
+#: results gathered so far (float64, ``(patches, columns)``) and what the caller holds.
+SOLVE_SHARE = 0.5
+
+
+def solve_column_bytes(n_patches: int, itemsize: int) -> int:
+    """Bytes one column of the radiosity solve takes while it runs (:data:`SOLVE_VECTORS`
+    vectors of the padded patch count, ``radiosity.patch_bucket``)."""
+    from ._solve import patch_bucket
+
+    return SOLVE_VECTORS * int(itemsize) * patch_bucket(int(n_patches))
+
+
+def solve_memory_bytes(n_patches: int, columns: int, batch: int, itemsize: int) -> int:
+    """Bytes the solve of ``columns`` columns in batches of ``batch`` needs at its peak: one
+    batch running, and every column's result on the host (float64, as
+    ``lighting.solve_spectral`` keeps it, and the solve's own copy in its precision)."""
+    return (min(int(batch), int(columns)) * solve_column_bytes(n_patches, itemsize)
+            + int(columns) * int(n_patches) * (8 + int(itemsize)))
+
+
+def solve_column_batch(n_patches: int, columns: int, itemsize: int, *,
+                       available: int | None = None) -> int:
+    """How many columns of the radiosity solve to run at once: as many as fit in
+    :data:`SOLVE_SHARE` of the available memory (``LUMIJAX_MEMORY_BYTES`` overrides it), at
+    least one. Raises :class:`SolveError` when one column and the results do not fit at all
+    (a refusal, not an out-of-memory kill half way through)."""
+    available = available_memory_bytes() if available is None else int(available)
+    columns = max(int(columns), 1)
+    per = solve_column_bytes(n_patches, itemsize)
+    need = solve_memory_bytes(n_patches, columns, 1, itemsize)
+    if need > available:
+        raise SolveError(
+            f"the radiosity solve of {columns:,} columns (networks × wavelengths) on "
+            f"{int(n_patches):,} patches needs at least {_gib(need)} (one column at a time: "
+            f"{_gib(per)}, and the results), and {_gib(available)} of memory is available: "
+            "set a larger [solver] patch_size (fewer patches), fewer "
+            "[solver] spectral_samples, or run where more memory is available", key="solver")
+    return int(min(columns, max(1, int(SOLVE_SHARE * available) // per)))

@@ -34,6 +34,18 @@ back to every column (``stats["columns_solved"]`` says how many were). A grey sc
 wavelengths are such copies once the spectral factor is taken out of B₀
 (``lighting._spectral.solve_spectral``). Only concrete inputs are compared; under ``jit`` or
 ``grad`` every column is solved.
+
+**Column batches.** The solve's memory grows with the columns (``_estimate.SOLVE_VECTORS``
+patch vectors each): at 10⁶ patches × 288 columns all at once it would be ≈ 30 GiB. The
+(distinct) columns are therefore solved in batches of ``_estimate.solve_column_batch`` (as
+many as fit in half the available memory, ``LUMIJAX_MEMORY_BYTES``), each batch one call of the
+same compiled solve: batches are made equal in size, the last padded with zero columns (which
+stay zero and touch no other column's scalars), so one shape is compiled. Every column's
+BiCGStab scalars are its own, so a batch changes no column's arithmetic; only the refinement's
+outer stopping test and the GMRES fallback look at all the columns of a batch, and there a
+column may take one more (tolerance-sized) correction than it would have alone. Under ``jit``
+or ``grad`` the batches are traced one after the other and concatenated: the implicit
+derivative of each is lineax's, as before.
 """
 
 from __future__ import annotations
@@ -189,6 +201,8 @@ def solve_radiosity(
     correct_rows: bool = True,
     throw: bool = True,
     transmission: tuple | None = None,
+    column_batch: int | None = None,
+    progress=None,
 ) -> RadiositySolution:
     """Solve ``(I − ρF) B = B₀`` for all columns of ``B₀`` at once.
 
@@ -223,6 +237,11 @@ def solve_radiosity(
         like ``rho`` (0 where nothing is transmitted) and ``(P,)`` the other side's patch; the
         solve is then ``(I − ρF − τ P F) B = B₀``, with ``B₀ = ρ E + τ E[partner]`` the
         caller's. None: no transmission (the solve as above, bit for bit).
+    column_batch
+        Most columns solved at once (module docstring, "Column batches"); None: as many as
+        fit in memory (``_estimate.solve_column_batch``).
+    progress
+        Called as ``progress(done, total)`` in columns after each batch (None: nothing).
     """
     solver = radiosity_solver(method if method is not None else solver)
     check_reflectance(transport, rho)
@@ -242,11 +261,24 @@ def solve_radiosity(
     columns = distinct_columns(rho, b0) if tau is None else distinct_columns(
         jnp.concatenate([_flat_columns(rho, b0), _flat_columns(tau, b0)]),
         jnp.concatenate([b0, b0]).reshape(2 * b0.shape[0], -1))
+    args = (solver, float(rtol), int(max_steps), bool(correct_rows))
     if columns is None:  # traced: every column
-        b, iterations, residual, result, escaped, stats = _padded_solve(
-            transport, rho, b0, solver, float(rtol), int(max_steps), bool(correct_rows),
-            tau, partner)
-        stats = dict(stats, columns_solved=int(np.prod(b0.shape[1:], dtype=int)))
+        count = int(np.prod(b0.shape[1:], dtype=int))
+        batch = _column_batch(column_batch, transport, count, b0.dtype)
+        if batch >= count:
+            b, iterations, residual, result, escaped, stats = _padded_solve(
+                transport, rho, b0, solver, float(rtol), int(max_steps), bool(correct_rows),
+                tau, partner)
+        else:
+            n = b0.shape[0]
+            rho_f, b0_f = _flat_columns(rho, b0), b0.reshape(n, -1)
+            tau_f = None if tau is None else _flat_columns(tau, b0)
+            b, iterations, residual, result, escaped, stats = _batched_solve(
+                transport, rho_f, b0_f, tau_f, partner, args, batch, progress, jnp)
+            b = b.reshape(b0.shape)
+            escaped = escaped.reshape(b0.shape[1:])
+            stats = dict(stats, created=stats["created"].reshape(b0.shape[1:]))
+        stats = dict(stats, columns_solved=count)
     else:
         # concrete: the columns picked and spread back in numpy (the same bits; eager jnp
         # gathers and reshapes would each compile a kernel per process)
@@ -255,10 +287,13 @@ def solve_radiosity(
         b0_h = np.asarray(b0)
         rho_u = _flat_columns(np.asarray(rho), b0_h, np)[:, first]
         tau_u = None if tau is None else _flat_columns(np.asarray(tau), b0_h, np)[:, first]
-        b_u, iterations, residual, result, escaped_u, stats = _padded_solve(
-            transport, rho_u, b0_h.reshape(n, -1)[:, first], solver, float(rtol),
-            int(max_steps), bool(correct_rows), tau_u, partner)
-        b = to_device(np.asarray(b_u)[:, inverse].reshape(b0.shape))
+        batch = _column_batch(column_batch, transport, len(first), b0.dtype)
+        b_u, iterations, residual, result, escaped_u, stats = _batched_solve(
+            transport, rho_u, b0_h.reshape(n, -1)[:, first], tau_u, partner, args, batch,
+            progress, np)
+        spread = not np.array_equal(inverse, np.arange(len(first)))  # spare a copy if all differ
+        b = to_device((b_u[:, inverse] if spread else b_u).reshape(b0.shape))
+        del b_u
         escaped = to_device(np.asarray(escaped_u)[inverse].reshape(b0.shape[1:]))
         created = np.asarray(stats["created"])[inverse].reshape(b0.shape[1:])
         stats = dict(stats, created=to_device(created), columns_solved=len(first))
@@ -266,6 +301,86 @@ def solve_radiosity(
     if throw:
         sol = _raise_if_failed(sol, solver, rtol, max_steps)
     return sol
+
+
+def _column_batch(column_batch, transport, count: int, dtype) -> int:
+    """Columns per batch: the caller's, else as many as fit (``_estimate``)."""
+    if column_batch is not None:
+        if int(column_batch) < 1:
+            raise SolveError(f"column_batch must be ≥ 1, got {column_batch}",
+                             key="column_batch")
+        return int(column_batch)
+    from ._estimate import solve_column_batch
+
+    return solve_column_batch(transport.n_patches, count, np.dtype(dtype).itemsize)
+
+
+def _batched_solve(transport, rho, b0, tau, partner, args, batch: int, progress, xp):
+    """:func:`_padded_solve` of the ``(P, C)`` columns in equal batches of at most ``batch``
+    (module docstring, "Column batches"): ``xp=np`` for concrete columns (each batch's answer
+    moved to one host array as it comes, so only one batch lives on the device), ``jnp``
+    inside a trace. Per-column outputs concatenated, the rest the worst batch's."""
+    count = b0.shape[1]
+    n_batches = -(-count // max(int(batch), 1))
+    size = -(-count // n_batches)
+    pad = n_batches * size - count
+
+    def padded(x, fill):
+        if x is None or pad == 0:
+            return x
+        return xp.concatenate([x, xp.full((x.shape[0], pad), fill, x.dtype)], axis=1)
+
+    solver, rtol, max_steps, correct_rows = args
+    rho_p, b0_p, tau_p = padded(rho, 0), padded(b0, 0), padded(tau, 0)
+    host = None if xp is jnp else np.empty(b0.shape, np.dtype(b0.dtype))
+    values, parts = [], []
+    for k in range(n_batches):
+        lo, hi = k * size, min((k + 1) * size, count)
+        cut = slice(lo, lo + size)
+        b, iterations, residual, result, escaped, stats = _padded_solve(
+            transport, rho_p[:, cut], b0_p[:, cut], solver, rtol, max_steps, correct_rows,
+            None if tau_p is None else tau_p[:, cut], partner)
+        m = hi - lo
+
+        def real(x, m=m):  # the batch's own columns (on the host: no eager kernel)
+            x = x if host is None else np.asarray(x)
+            return x if m == size else x[:m] if x.ndim == 1 else x[:, :m]
+
+        if host is not None:
+            host[:, lo:hi] = real(b)
+        else:
+            values.append(real(b))
+        parts.append((iterations, residual, result, real(escaped),
+                      {key: real(v) if key == "created" else v for key, v in stats.items()}))
+        if progress is not None:
+            progress(hi, count)
+    value = host if host is not None else jnp.concatenate(values, axis=1)
+    return (value, *_merge(parts))
+
+
+def _merge(parts):
+    """``(iterations, residual, result, escaped, stats)`` of column batches as one solve's:
+    the most products and the worst residual and result; per-column arrays concatenated."""
+    if len(parts) == 1:
+        return parts[0]
+    its, res, results, esc, stats = zip(*parts, strict=True)
+    host = all(_concrete(x) is not None for x in (*its, *res, *esc))
+    xp = np if host else jnp
+
+    def worst(xs):
+        out = xp.max(xp.stack([xp.asarray(_concrete(x) if host else x) for x in xs]), axis=0)
+        return to_device(out) if host else out
+
+    def cat(xs):
+        out = xp.concatenate([xp.asarray(_concrete(x) if host else x) for x in xs])
+        return to_device(out) if host else out
+
+    result = results[0]
+    for r in results[1:]:  # the first failure is the solve's
+        result = lx.RESULTS.where(result == lx.RESULTS.successful, r, result)
+    merged = {key: (cat if key == "created" else worst)([s[key] for s in stats])
+              for key in stats[0]}
+    return worst(its), worst(res), result, cat(esc), merged
 
 
 def _flat_columns(rho, b0, xp=jnp):
