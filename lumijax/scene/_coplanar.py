@@ -17,8 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from jaxtyping import Float, Int
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 __all__ = ["Coincidence", "coincident_surfaces"]
 
@@ -96,6 +94,11 @@ def coincident_surfaces(
 
 def _clusters(keys: np.ndarray) -> np.ndarray:
     """Connected components of buckets joined to their neighbours (±1 in every key)."""
+    # scipy here, not at the top: a scene of one item (a box room) never gets this far, and
+    # importing scipy.sparse cost its run 0.3-0.6 s (contended)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     uniq, cell = np.unique(keys, axis=0, return_inverse=True)
     cell = cell.ravel()
     span = uniq.max(axis=0) - uniq.min(axis=0) + 3

@@ -63,3 +63,18 @@ def test_partial_overlap_of_fine_meshes_measures_the_shared_area():
     (c,) = coincident_surfaces(tri, item)
     assert (c.a, c.b) == (0, 1)
     assert c.area_m2 == pytest.approx(1.0, rel=0.03)
+
+
+def test_a_scene_of_one_item_loads_without_importing_scipy(tmp_path):
+    # a box room has no second item to coincide with: its build must not pay for scipy.sparse
+    # (0.3-0.6 s of a cold run), so the import sits where two items share a plane
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np; from lumijax.scene._coplanar import coincident_surfaces; "
+            "v = np.random.default_rng(0).random((40, 3, 3)); "
+            "assert coincident_surfaces(v, np.zeros(40, int)) == []; "
+            "print(sorted(m for m in sys.modules if m.startswith('scipy')))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert proc.stdout.strip() == "[]"
