@@ -188,8 +188,9 @@ def solve_mma(problem: DesignProblem, x0, lo, hi, *, smooth: float = 1e-3,
 
     ``max_steps`` bounds the outer steps of each ε level; ``tolerance`` the accepted relative
     violation (margins ≥ −tolerance). A level ends when the design is feasible within
-    :data:`_FEAS_STOP` of the tolerance (the last level; 10 × it at the coarse ε) and either the projected gradient of the Lagrangian (times each
-    variable's range) is below 10⁻⁴ or three steps in a row moved the objective by less than
+    :data:`_FEAS_STOP` × the tolerance (the last level; the coarse ε's within 10 × the
+    tolerance) and either the projected gradient of the Lagrangian (times each variable's
+    range) is below :data:`_KKT_STOP` or three steps in a row moved the objective by less than
     10⁻³ × the tolerance, relative (SLSQP's ``ftol``). ``iterations`` counts outer
     steps, ``evaluations`` every point lit (an outer step's margins-and-Jacobian, and each
     GCMMA inner check). ``inner``: GCMMA's conservativity checks per outer step at most
