@@ -29,18 +29,48 @@ def _console():
     return Console(stderr=False, highlight=False)
 
 
+def _time_left(elapsed: float, done: float, total: float | None) -> float | None:
+    """Seconds a stage still needs at the rate it has kept since it began (its work units are
+    of equal cost: patches, points, luminaire batches, solve columns); None before any unit
+    is done."""
+    if not total or done <= 0 or elapsed <= 0:
+        return None
+    return max(elapsed * (total - done) / done, 0.0)
+
+
 def _progress_bar(console, description: str):
-    """A rich progress bar that shows only when work takes more than a moment."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    """A rich progress bar that shows only when work takes more than a moment (and only on a
+    terminal): one line per stage, with its elapsed time and the time it has left."""
+    from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeElapsedColumn
+    from rich.text import Text
+
+    class Left(ProgressColumn):
+        def render(self, task) -> Text:
+            left = None if task.finished else _time_left(task.elapsed or 0.0, task.completed,
+                                                         task.total)
+            if left is None:
+                return Text("")
+            m, sec = divmod(int(round(left)), 60)
+            return Text(f"{m // 60}:{m % 60:02d}:{sec:02d} left", style="progress.remaining")
 
     progress = Progress(
         TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-        TimeElapsedColumn(), console=console, transient=True, disable=not console.is_terminal,
+        TimeElapsedColumn(), Left(), console=console, transient=True,
+        disable=not console.is_terminal,
     )
-    task = progress.add_task(description, total=None)
+    tasks = {"": progress.add_task(description, total=None)}
+    current = [""]
 
     def update(stage: str, done: int, total: int) -> None:
-        progress.update(task, description=stage, completed=done, total=total)
+        task = tasks.get(stage)
+        if task is None or stage != current[0] and done < progress.tasks[task].completed:
+            # a new stage (or one begun again): its own line, so its rate is its own
+            progress.update(tasks[current[0]], visible=False)
+            task = tasks[stage] = progress.add_task(stage, total=total)
+        elif stage != current[0]:
+            progress.update(tasks[current[0]], visible=False)
+        current[0] = stage
+        progress.update(task, completed=done, total=total, visible=True)
 
     return progress, update
 

@@ -67,7 +67,7 @@ def solve_lighting(
     rays = st.cast_gather_rays(points, normals, meshed, scene, settings,
                                report("gathering onto grids"))
     radiosity = st.solve(scene, points, normals, emission, direct, meshed, transport, sampling,
-                         rays, settings)
+                         rays, settings, report("solving inter-reflections"))
     gathered = st.gather_fine(scene, emission, direct, meshed, sampling, radiosity, settings)
     sol = st.assemble(scene, points, normals, emission, direct, meshed, transport, sampling,
                       rays, radiosity, gathered, settings)

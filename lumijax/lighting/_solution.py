@@ -342,7 +342,7 @@ class Shot:
     value: Float[np.ndarray, "patches src w"] | None = None  # the spectral radiosity solved
 
 
-def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
+def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=None) -> Shot:
     """Solve and gather the inter-reflected light of sources with these direct irradiances.
 
     Parameters
@@ -350,20 +350,55 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     patch_direct, point_direct
         ``(src, patches)`` and ``(src, points)`` direct illuminance (lx), one row per source
         (group) with spectrum ``spectra[i]`` (None: the default).
+    progress
+        Called as ``progress(done, total)`` in solved columns (sources × wavelengths).
+
+    Sources are solved and gathered in batches of as many as the solve's memory budget takes
+    (``radiosity._estimate.solve_column_batch``; one batch when all fit): each batch's B₀, its
+    copies and its float64 answer exist only while it is solved, so the host holds the whole
+    spectral radiosity once, not the five copies one solve of every column would make.
     """
-    t0 = time.perf_counter()
+    from ..radiosity._estimate import solve_column_batch
+    from ..radiosity._solve import join_solutions
+
     sp, gather = _needed(sol.spectral), _needed(sol.coarse.gather)
     weights = [sp.weights(s) for s in spectra]
     s = np.stack([w[0] for w in weights])  # (src, W)
     h = np.stack([w[1] for w in weights])  # (src, 3, W)
     dtype = _dtype(sol)
-    b, res = solve_spectral(sol.transport, sp.rho, patch_direct, s, dtype,  # (P, src, W)
-                            transmission=sp.transmission(sol.coarse.patches),
-                            solver=sol.solve_method, rtol=sol.solve_tolerance,
-                            max_steps=sol.solve_max_steps)
-    t1 = time.perf_counter()
+    patch_direct = np.asarray(patch_direct)
+    n_src, n_w = s.shape
+    n = patch_direct.shape[1]
+    per = max(1, solve_column_batch(n, n_src * n_w, np.dtype(dtype).itemsize) // n_w)
+    transmission = sp.transmission(sol.coarse.patches)
+    b = e_ind = None
+    parts, solve_s, gather_s = [], 0.0, 0.0
+    if progress is not None:
+        progress(0, n_src * n_w)
+    for lo in range(0, n_src, per):
+        hi = min(lo + per, n_src)
+        t = time.perf_counter()
+        told = None if progress is None else (
+            lambda done, total, lo=lo: progress(lo * n_w + done, n_src * n_w))
+        b_k, res = solve_spectral(sol.transport, sp.rho, patch_direct[lo:hi], s[lo:hi], dtype,
+                                  transmission=transmission, solver=sol.solve_method,
+                                  rtol=sol.solve_tolerance, max_steps=sol.solve_max_steps,
+                                  progress=told)  # (P, src, W)
+        t1 = time.perf_counter()
+        e_k = np.asarray(gather(to_device(b_k, dtype)), np.float64)  # (N, src, W)
+        gather_s += time.perf_counter() - t1
+        solve_s += t1 - t
+        if per >= n_src:
+            b, e_ind = b_k, e_k
+        else:
+            if b is None:
+                b = np.empty((n, n_src, n_w), np.float64)
+                e_ind = np.empty((e_k.shape[0], n_src, n_w), np.float64)
+            b[:, lo:hi], e_ind[:, lo:hi] = b_k, e_k
+        parts.append(res)
+        del b_k, e_k
+    res = join_solutions(parts)
     b_xyz = np.einsum("scw,psw->scp", h, b)  # (src, 3, P)
-    e_ind = np.asarray(gather(to_device(b, dtype)), np.float64)  # (N, src, W)
     ind_xyz = np.einsum("scw,nsw->scn", h, e_ind)  # (src, 3, N)
     colour = np.einsum("scw,sw->sc", h, s)  # XYZ of each source's light, Y = 1
     point_xyz = ind_xyz + colour[:, :, None] * np.asarray(point_direct)[:, None, :]
@@ -371,5 +406,6 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct) -> Shot:
     return Shot(
         radiosity=b_xyz[:, 1], radiosity_xyz=b_xyz if spectral else None,
         point_indirect=ind_xyz[:, 1], point_xyz=point_xyz if spectral else None, result=res,
-        timing_s={"solve": t1 - t0, "gather": time.perf_counter() - t1}, value=b,
+        timing_s={"solve": solve_s, "gather": gather_s},
+        value=b,
     )

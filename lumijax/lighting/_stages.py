@@ -372,8 +372,9 @@ def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
     t = time.perf_counter()
     fine = None
     if meshed.fine is None:
-        patch = direct_illuminance(emission.scene, meshed.patches.centroid,
-                                   meshed.patches.normal, progress=report)
+        # in chunks of patches: the progress counts patches (equal work), not photometries
+        patch = _direct_in_chunks(emission.scene, meshed.patches.centroid,
+                                  meshed.patches.normal, report)
     else:
         d_fine, patch = element_direct(emission.scene, meshed.fine, meshed.patches,
                                        progress=report)
@@ -405,9 +406,10 @@ def cast_gather_rays(points: np.ndarray, normals: np.ndarray, meshed: Meshed, sc
 
 def solve(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emission,
           direct: DirectLight, meshed: Meshed, transport: Transport, sampling: Sampling,
-          rays: GatherRays, settings: SolverSettings) -> Radiosity:
+          rays: GatherRays, settings: SolverSettings, report: Report | None = None) -> Radiosity:
     """One batched solve ``(I − ρ(λ)F) B = ρ(λ) E s(λ)`` of every group and sample wavelength,
-    gathered onto the points (:func:`~lumijax.lighting._solution.shoot`)."""
+    gathered onto the points (:func:`~lumijax.lighting._solution.shoot`); ``report`` is told
+    the columns solved (groups × wavelengths) after each batch."""
     k, n = len(scene.networks), meshed.patches.n
     point_direct = emission.per_network(direct.points)
     unlit = LightingSolution(
@@ -420,7 +422,7 @@ def solve(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emiss
         solve_max_steps=settings.max_iterations,
     )
     t = time.perf_counter()
-    shot = shoot(unlit, direct.patches, list(emission.spectra), direct.points)
+    shot = shoot(unlit, direct.patches, list(emission.spectra), direct.points, progress=report)
     return Radiosity(shot, time.perf_counter() - t)
 
 

@@ -81,6 +81,7 @@ __all__ = [
     "distinct_columns",
     "CLOSED_TOL",
     "patch_bucket",
+    "join_solutions",
 ]
 
 CLOSED_TOL = 0.02
@@ -241,7 +242,8 @@ def solve_radiosity(
         Most columns solved at once (module docstring, "Column batches"); None: as many as
         fit in memory (``_estimate.solve_column_batch``).
     progress
-        Called as ``progress(done, total)`` in columns after each batch (None: nothing).
+        Called as ``progress(done, total)`` in columns of ``B₀`` after each batch (copies of a
+        distinct column counted with it; None: nothing).
     """
     solver = radiosity_solver(method if method is not None else solver)
     check_reflectance(transport, rho)
@@ -288,9 +290,12 @@ def solve_radiosity(
         rho_u = _flat_columns(np.asarray(rho), b0_h, np)[:, first]
         tau_u = None if tau is None else _flat_columns(np.asarray(tau), b0_h, np)[:, first]
         batch = _column_batch(column_batch, transport, len(first), b0.dtype)
+        count = len(inverse)
+        told = None if progress is None else (  # in the caller's columns, copies included
+            lambda done, total: progress(count * done // total, count))
         b_u, iterations, residual, result, escaped_u, stats = _batched_solve(
             transport, rho_u, b0_h.reshape(n, -1)[:, first], tau_u, partner, args, batch,
-            progress, np)
+            told, np)
         spread = not np.array_equal(inverse, np.arange(len(first)))  # spare a copy if all differ
         b = to_device((b_u[:, inverse] if spread else b_u).reshape(b0.shape))
         del b_u
@@ -381,6 +386,24 @@ def _merge(parts):
     merged = {key: (cat if key == "created" else worst)([s[key] for s in stats])
               for key in stats[0]}
     return worst(its), worst(res), result, cat(esc), merged
+
+
+def join_solutions(parts: list[RadiositySolution]) -> RadiositySolution:
+    """Solutions of consecutive slices of one set of columns (along the first column axis, as
+    ``lighting.shoot`` batches its sources) as one: values and per-column figures
+    concatenated, the most products and the worst residual and result, columns solved
+    summed."""
+    if len(parts) == 1:
+        return parts[0]
+    solved = sum(int(p.stats["columns_solved"]) for p in parts)
+    iterations, residual, result, escaped, stats = _merge([
+        (p.iterations, p.residual, p.result, p.escaped,
+         {k: v for k, v in p.stats.items() if k != "columns_solved"}) for p in parts])
+    host = [_concrete(p.value) for p in parts]
+    value = (to_device(np.concatenate(host, axis=1)) if all(h is not None for h in host)
+             else jnp.concatenate([p.value for p in parts], axis=1))
+    return RadiositySolution(value, iterations, residual, result, escaped,
+                             dict(stats, columns_solved=solved))
 
 
 def _flat_columns(rho, b0, xp=jnp):

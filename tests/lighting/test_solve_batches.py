@@ -1,0 +1,57 @@
+"""A study's solve in source batches (``lighting._solution.shoot``) and the progress of its
+stages (``solve_lighting``'s ``progress``, the command line's bar)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import box_room
+
+import lumijax
+from lumijax.cli import _time_left
+from lumijax.radiosity._estimate import SOLVE_SHARE, solve_column_bytes
+
+STUDY = box_room('precision = "float64"\ntarget_patches = 60\ncache = false',
+                 grid="nu = 4\nnv = 3")
+
+
+def _compute(path):
+    seen: list[tuple[str, int, int]] = []
+    res = lumijax.compute(lumijax.load_study(path),
+                          progress=lambda stage, d, t: seen.append((stage, d, t)))
+    return res.lighting, seen
+
+
+def test_source_batches_give_the_one_batch_solve(write_study, monkeypatch):
+    path = write_study(STUDY)
+    monkeypatch.setenv("LUMIJAX_MEMORY_BYTES", str(10**12))
+    whole, seen = _compute(path)
+    w = whole.spectral.n
+    solve = [(d, t) for s, d, t in seen if s == "solving inter-reflections"]
+    assert solve == [(0, 2 * w), (2 * w, 2 * w)]  # one batch: 2 sources × w wavelengths
+    # a budget of one source's columns a batch: 2 batches, as the solve's memory share decides
+    per = solve_column_bytes(whole.coarse.patches.n, 8)
+    monkeypatch.setenv("LUMIJAX_MEMORY_BYTES", str(int((w + 0.5) * per / SOLVE_SHARE)))
+    parts, seen = _compute(path)
+    solve = [(d, t) for s, d, t in seen if s == "solving inter-reflections"]
+    assert solve == [(0, 2 * w), (w, 2 * w), (2 * w, 2 * w)]
+    assert np.all(whole.point_indirect > 1.0)  # a closed grey room: real inter-reflection
+    np.testing.assert_allclose(parts.point_indirect, whole.point_indirect, rtol=1e-12)
+    np.testing.assert_allclose(parts.coarse.radiosity, whole.coarse.radiosity, rtol=1e-12)
+    assert parts.stats["columns_solved"] == whole.stats["columns_solved"] == 2  # grey: 1 each
+
+
+def test_patch_stage_reports_patches(write_study, monkeypatch):
+    from lumijax.lighting import _stages
+
+    monkeypatch.setattr(_stages, "POINT_CHUNK", 40)  # a large study's chunks, on a small one
+    lighting, seen = _compute(write_study(STUDY))
+    n = lighting.coarse.patches.n
+    stage = [(d, t) for s, d, t in seen if s == "direct light on patches"]
+    assert n > 80 and stage == [(0, n)] + [(min(k, n), n) for k in range(40, n + 40, 40)]
+
+
+@pytest.mark.parametrize(("elapsed", "done", "total", "left"), [
+    (10.0, 1, 4, 30.0), (60.0, 3, 3, 0.0), (5.0, 0, 9, None), (5.0, 2, None, None)])
+def test_time_left_is_the_rate_so_far(elapsed, done, total, left):
+    assert _time_left(elapsed, done, total) == left
