@@ -168,7 +168,12 @@ def _far_field(patches, part, s: FormFactorSettings, caster, triangles, diam, co
     return [(a.patches, b.patches, *uv) for a, b, uv in far], sorted(near), dense
 
 
-_BATCH = 1 << 15  # receiver points per kernel call: one fixed shape, one compilation
+#: Receiver points per kernel call: one shape, so one trace and one compilation (or one read of
+#: JAX's persistent cache) in any process, whatever the patch count. Three shapes (32,768,
+#: 4,096, 1,024) cost a cold cube0.8 run 0.3-0.4 s each of tracing and cache reading for
+#: 0.06 s of work apiece; 4,096 points run as fast per point as 32,768 (0.004 s vs 0.059 s,
+#: contended) and pad at most 4,095 points per call of _contour_start.
+_BATCH = 4096
 
 
 @jax.jit
@@ -186,43 +191,40 @@ def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
     )
 
 
-def _contour_batched(q, n, tri) -> np.ndarray:
-    """Mean over each pair's receiver points q (N, Q, 3) of the factor to tri (N, 3, 3)."""
+def _contour_start(q, n, tri):
+    """Dispatch the factors of each pair's receiver points q (N, Q, 3) to tri (N, 3, 3): the
+    kernel calls run while the caller works on (JAX's asynchronous dispatch); finish with
+    :func:`_contour_mean`."""
     npair, nq = q.shape[:2]
-    # Relative coordinates (float64 on the host) so that float32 in the kernel keeps precision.
+    # Relative coordinates (float64 on the host) so that float32 in the kernel keeps precision;
+    # rounded to the kernel's dtype here, before the repeats (JAX would round each batch the
+    # same way, after copying twice the bytes)
+    ft = jax.dtypes.canonicalize_dtype(np.float64)
     origin = q.mean(axis=1, keepdims=True)
-    qf = (q - origin).reshape(-1, 3)
-    tf = np.repeat(tri - origin, nq, axis=0)
-    nf = np.repeat(n, nq, axis=0)
-    out = np.empty(len(qf))
-    s = 0
-    for size in _batch_sizes(len(qf)):
-        m = min(size, len(qf) - s)
-        if m == size:  # a full batch: no padded copy
-            out[s : s + m] = np.asarray(_contour_flat(qf[s : s + m], nf[s : s + m],
-                                                      tf[s : s + m]))
+    qf = (q - origin).reshape(-1, 3).astype(ft)
+    tf = np.repeat((tri - origin).astype(ft), nq, axis=0)
+    nf = np.repeat(n.astype(ft), nq, axis=0)
+    calls = []
+    for s in range(0, len(qf), _BATCH):
+        m = min(_BATCH, len(qf) - s)
+        if m == _BATCH:  # a full batch: no padded copy
+            calls.append(_contour_flat(qf[s : s + m], nf[s : s + m], tf[s : s + m]))
         else:
-            qp, tp, npd = np.zeros((size, 3)), np.zeros((size, 3, 3)), np.zeros((size, 3))
+            qp, tp, npd = (np.zeros((_BATCH, 3), ft), np.zeros((_BATCH, 3, 3), ft),
+                           np.zeros((_BATCH, 3), ft))
             qp[:m], tp[:m], npd[:m] = qf[s : s + m], tf[s : s + m], nf[s : s + m]
-            out[s : s + m] = np.asarray(_contour_flat(qp, npd, tp))[:m]
-        s += m
+            calls.append(_contour_flat(qp, npd, tp))
+    return calls, npair, nq
+
+
+def _contour_mean(started) -> np.ndarray:
+    """Mean over each pair's receiver points of the factors :func:`_contour_start` dispatched."""
+    calls, npair, nq = started
+    out = np.empty(npair * nq)
+    for k, c in enumerate(calls):
+        part = out[k * _BATCH : (k + 1) * _BATCH]
+        part[:] = np.asarray(c)[: len(part)]
     return out.reshape(npair, nq).mean(axis=1)
-
-
-def _batch_sizes(n: int) -> list[int]:
-    """The padded kernel calls covering ``n`` points, from three shapes only (three
-    compilations): whole batches of :data:`_BATCH`, then the rest in calls of 4,096 (or one of
-    1,024 when that holds it), or one more whole batch when eight or more 4,096 calls would
-    be needed. Padding the rest to a whole batch wasted 42 % of the kernel's work on a cube's
-    operator (2.12 M points computed for 1.49 M)."""
-    sizes = [_BATCH] * (n // _BATCH)
-    rest = n - _BATCH * len(sizes)
-    if rest == 0:
-        return sizes or [1024]
-    if rest <= 1024:
-        return sizes + [1024]
-    k = -(-rest // 4096)
-    return sizes + ([_BATCH] if k >= 8 else [4096] * k)
 
 
 def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
@@ -236,32 +238,41 @@ def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
     return caster.pair_transmission(o, t).reshape(n, rays).mean(axis=1)
 
 
-def _near_pairs(p: Patches, i, j, s: FormFactorSettings, caster, counters) -> np.ndarray:
-    """``A_i F_ij`` (m²) for near pairs by the contour integral and receiver quadrature."""
+def _near_pairs_start(p: Patches, i, j, s: FormFactorSettings, caster, counters):
+    """``A_i F_ij`` (m²) for near pairs by the contour integral and receiver quadrature, its
+    kernel calls dispatched now: returns the function that waits for them and gives it (the
+    caller computes the far field meanwhile)."""
     g = np.zeros(len(i))
     if not len(i):
-        return g
+        return lambda: g
     d = np.linalg.norm(p.centroid[j] - p.centroid[i], axis=1)
     r = d / np.maximum(p.diameter[i], p.diameter[j])
     close = r < s.close_ratio * (1 + _TIE)
+    parts = []
     for sel, nsub, rays in ((close, s.close_subdiv, s.close_rays), (~close, s.mid_subdiv, s.mid_rays)):
         ii, jj = i[sel], j[sel]
         if not len(ii):
             continue
         qi = _quad_points(p.vertices[ii], nsub)
         qj = _quad_points(p.vertices[jj], nsub)
-        f_ij = _contour_batched(qi, p.normal[ii], p.vertices[jj])
-        gg = p.area[ii] * f_ij
-        if s.symmetrise:
-            f_ji = _contour_batched(qj, p.normal[jj], p.vertices[ii])
-            gg = 0.5 * (gg + p.area[jj] * f_ji)
-        if caster is not None:
-            t0 = time.perf_counter()
-            gg = gg * _visibility(caster, qi, qj, rays)
-            counters["ray_time"] += time.perf_counter() - t0
-            counters["rays"] += len(ii) * rays
-        g[sel] = gg
-    return g
+        f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj])
+        f_ji = _contour_start(qj, p.normal[jj], p.vertices[ii]) if s.symmetrise else None
+        parts.append((sel, ii, jj, qi, qj, rays, f_ij, f_ji))
+
+    def finish() -> np.ndarray:
+        for sel, ii, jj, qi, qj, rays, f_ij, f_ji in parts:
+            gg = p.area[ii] * _contour_mean(f_ij)
+            if f_ji is not None:
+                gg = 0.5 * (gg + p.area[jj] * _contour_mean(f_ji))
+            if caster is not None:
+                t0 = time.perf_counter()
+                gg = gg * _visibility(caster, qi, qj, rays)
+                counters["ray_time"] += time.perf_counter() - t0
+                counters["rays"] += len(ii) * rays
+            g[sel] = gg
+        return g
+
+    return finish
 
 
 def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, counters, diam,
@@ -281,35 +292,45 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
     cos_j = ci0 @ nj.T - (nj * cj0).sum(1)[None]  # −n_j·(c_j − c_i)
     size = np.maximum(diam[ia][:, None], diam[ib][None])
     near = d2 < (s.near_ratio * size) ** 2 * (1 + 2 * _TIE)
-    upper = np.triu(np.ones(d2.shape, bool), 1) if diagonal else True
-    far = ~near & (cos_i > 0) & (cos_j > 0) & upper
-    # the far kernel (form_factor_far) in float64 numpy (host side, one pass), on the whole
-    # block and kept where far: the same operations on the same numbers as on the far pairs
-    # alone, without gathering five arrays of them and scattering the result
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        g = np.where(far, far_g(cos_i, cos_j, ni @ nj.T, d2, ai[:, None], aj[None],
-                                spread[ia][:, None], spread[ib][None]), 0.0)
-    if caster is not None and far.any():
-        fi, fj = np.nonzero(far)
-        t0 = time.perf_counter()
-        carried = caster.pair_transmission(ci[fi], cj[fj])  # 0, 1, or τ(θ) through glass
-        counters["ray_time"] += time.perf_counter() - t0
-        counters["rays"] += len(fi)
-        g[fi, fj] *= carried
-    # Near pairs: any vertex of each in front of the other's plane (partly-facing neighbours
-    # count; the contour integral clips exactly).
+    # j > i: each unordered pair of a diagonal block once (np.tri, not triu of a block of ones:
+    # one comparison pass instead of two)
+    upper = ~np.tri(d2.shape[0], d2.shape[1], 0, dtype=np.bool_) if diagonal else True
+    # Near pairs first, their kernel calls left running while the far field is computed here:
+    # any vertex of each in front of the other's plane (partly-facing neighbours count; the
+    # contour integral clips exactly).
     ni_i, nj_j = np.nonzero(near & upper)
+    near_done = None
     if len(ni_i):
         vi, vj = p.vertices[ia[ni_i]], p.vertices[ib[nj_j]]
         # in front by more than the rounding of the coordinates: a floor vertex on the wall's
         # plane is not "in front" of it because the room sits at 10⁷ m
-        tol = np.maximum(1e-9 * size[ni_i, nj_j], rounding_length(np.concatenate([vi, vj])))
+        tol = np.maximum(1e-9 * size[ni_i, nj_j], max(rounding_length(vi), rounding_length(vj)))
         front_j = (np.einsum("nkc,nc->nk", vj - ci[ni_i, None], ni[ni_i]) > tol[:, None]).any(1)
         front_i = (np.einsum("nkc,nc->nk", vi - cj[nj_j, None], nj[nj_j]) > tol[:, None]).any(1)
         keep = front_i & front_j
         ni_i, nj_j = ni_i[keep], nj_j[keep]
         counters["near_pairs"] += len(ni_i)
-        g[ni_i, nj_j] = _near_pairs(p, ia[ni_i], ib[nj_j], s, caster, counters)
+        near_done = _near_pairs_start(p, ia[ni_i], ib[nj_j], s, caster, counters)
+    far = ~near & (cos_i > 0) & (cos_j > 0) & upper
+    # the far kernel (form_factor_far) in float64 numpy (host side) on the far pairs only, by
+    # flat index: the same operations on the same numbers as on the whole block, without the
+    # half of a diagonal block below its diagonal, the near pairs and the pairs facing away
+    # (far_g was half the block's host time, computed on every entry)
+    flat = np.flatnonzero(far)
+    fi, fj = np.divmod(flat, far.shape[1])
+    sa, sb = spread[ia], spread[ib]
+    g = np.zeros(far.shape)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        g.flat[flat] = far_g(cos_i.flat[flat], cos_j.flat[flat], (ni @ nj.T).flat[flat],
+                             d2.flat[flat], ai[fi], aj[fj], sa[fi], sb[fj])
+    if caster is not None and len(flat):
+        t0 = time.perf_counter()
+        carried = caster.pair_transmission(ci[fi], cj[fj])  # 0, 1, or τ(θ) through glass
+        counters["ray_time"] += time.perf_counter() - t0
+        counters["rays"] += len(fi)
+        g.flat[flat] *= carried
+    if near_done is not None:
+        g[ni_i, nj_j] = near_done()
     if diagonal:
         g = g + g.T
     return g
