@@ -36,6 +36,7 @@ from jaxtyping import Array, Float, Int
 
 from .._jit_cache import to_device
 from ..kernels import pair_light
+from ..photometry._distribution import angles_to_direction
 
 __all__ = ["PairSet", "PairChunk", "build_pairs", "pair_chunks", "sub_source_offsets",
            "support_cosine"]
@@ -118,11 +119,6 @@ def sub_source_offsets(length_m: float, width_m: float, distance_m: float) -> np
     return np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
 
 
-@eqx.filter_jit
-def _direction(distribution, h_deg, v_deg):
-    return distribution.direction(h_deg, v_deg)
-
-
 def support_cosine(distribution, threshold: float = 0.0) -> float:
     """Cosine of the widest angle from the photometric axis at which ``distribution`` can exceed
     ``threshold`` × its peak (default: be non-zero at all): the bilinear interpolant reaches the
@@ -139,8 +135,10 @@ def support_cosine(distribution, threshold: float = 0.0) -> float:
     grown[:, :-1] |= nz[:, 1:]
     hh, vv = np.meshgrid(np.asarray(distribution.h_deg), np.asarray(distribution.v_deg),
                          indexing="ij")
-    # one compiled program (eager, its trig and stacking compiled eight in every process)
-    dirs = np.asarray(_direction(distribution, hh[grown], vv[grown]))
+    # in numpy, float64: a compiled program here cost one compile per table shape, and the 2°
+    # margin dwarfs the float32 kernel's rounding
+    dirs = angles_to_direction(distribution.photometric_type, np.radians(hh[grown]),
+                               np.radians(vv[grown]), xp=np)
     widest = np.arccos(np.clip(np.min(-dirs[:, 2]), -1.0, 1.0)) + np.radians(2.0)
     return float(np.cos(widest)) if widest < np.pi else -1.0
 
@@ -413,9 +411,14 @@ def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, resp
     return src, rcv, w, gain
 
 
+def _pow2(n: int) -> int:
+    return 1 << max(int(n) - 1, 0).bit_length()
+
+
 def _bucket(n: int) -> int:
-    """Padded call size: powers of 4 from 4096 up, so few shapes are ever compiled."""
-    size = 4096
+    """Padded call size: powers of 4 from 65,536 up, so few shapes are ever compiled (a
+    smaller call costs a millisecond more than its own size would; a compile costs ~0.3 s)."""
+    size = 1 << 16
     while size < n:
         size *= 4
     return min(size, _PAIRS_PER_CALL)
@@ -463,7 +466,10 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     if not len(points) or not sel:
         return
     rot_all = np.array([scene.luminaires[i].rotation for i in sel]).reshape(-1, 3, 3)
-    rot_j = to_device(rot_all)  # numpy → device without an eager kernel (_jit_cache.to_device)
+    # numpy → device without an eager kernel (_jit_cache.to_device), padded with identities to
+    # a power of two so that selections of other sizes reuse the compiled kernel
+    rot_pad = np.broadcast_to(np.eye(3), (_pow2(len(rot_all)) - len(rot_all), 3, 3))
+    rot_j = to_device(np.concatenate([rot_all, rot_pad]))
     widen = np.zeros(len(sel)) if widen is None else np.asarray(widen, np.float64)
     tiles = Tiles.build(points)
     pts_t, nrm_t = points[tiles.order], normals[tiles.order]  # tile order: a tile is a slice
@@ -533,7 +539,9 @@ def _chunk(batch, dist, s_idx, r_idx, w, gain, points, rot_j, caster, all_rays, 
     pad = _bucket(n) - n
     w_p = np.zeros((n + pad, 3))
     w_p[:n], w_p[n:, 2] = w, -1.0  # padding: straight down, gain 0
-    e = np.array(_light_block(dist, rot_j, to_device(np.pad(lum, (0, pad)).astype(np.int32)),
+    # the padded table (CandelaDistribution.kernel): one compiled kernel for every photometry
+    # of a type and shape bucket
+    e = np.array(_light_block(dist.kernel, rot_j, to_device(np.pad(lum, (0, pad)).astype(np.int32)),
                               to_device(w_p), to_device(np.pad(gain, (0, pad)))),
                  dtype=np.float64)[:n]
     t1 = time.perf_counter()

@@ -128,7 +128,8 @@ class Emitters(eqx.Module):
 
 
 #: Rays per evaluation of a photometry toward the eye: every batch is padded to (or cut at)
-#: this size, so JAX compiles one shape per photometry, not one per batch.
+#: this size, and the photometry is its padded table (CandelaDistribution.kernel), so JAX
+#: compiles one shape for every photometry of a bucket, not one per batch or file.
 _BATCH = 1 << 16
 
 
@@ -158,7 +159,7 @@ def _per_candela(distribution, opening, local: np.ndarray) -> np.ndarray:
         pad = np.zeros((_BATCH, 3))
         pad[:, 2] = -1.0  # straight down: a harmless direction for the padding
         pad[:n] = part
-        out[s:s + n] = np.asarray(fn(distribution, opening, jnp.asarray(pad)),
+        out[s:s + n] = np.asarray(fn(distribution.kernel, opening, jnp.asarray(pad)),
                                   np.float64)[:n]
     return out
 
