@@ -346,8 +346,12 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
     from ..radiosity import SampledSettings, build_sampled, cached_sampled_operator
     from ..radiosity._estimate import bound_sampled_memory
 
+    # the solve's columns too (one batch at least, and every column's result on the host):
+    # one group per network and sample wavelength, the fewest the solve can have
+    columns = len(scene.networks) * max(settings.spectral_samples, 1)
     estimate = bound_sampled_memory(patches.n, settings.rays_per_patch,
-                                    itemsize=np.dtype(dtype).itemsize, file=scene.source)
+                                    itemsize=np.dtype(dtype).itemsize, file=scene.source,
+                                    columns=columns)
     bound_s = time.perf_counter() - t0
     t = time.perf_counter()
     ss = SampledSettings(rays_per_patch=settings.rays_per_patch)

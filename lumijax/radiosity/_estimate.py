@@ -354,12 +354,17 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
         peak = max(peak, stored + solve_memory_bytes(n_patches, columns, 1, itemsize))
     est = OperatorEstimate(int(n_patches), 1, 0, stored, peak, visible_only=False)
     if est.peak_bytes > available:
-        fit = int(0.9 * available / (2 * (8 + itemsize) * max(int(n_patches), 1)))
+        per_ray = (8 + itemsize) * max(int(n_patches), 1)
+        fit = int(0.9 * available / (2 * per_ray))
+        if columns is not None:  # the links beside the solve's least memory fit too
+            least = solve_memory_bytes(n_patches, columns, 1, itemsize)
+            fit = min(fit, int((0.9 * available - least) / per_ray))
         fix = (f"set [solver] rays_per_patch ≤ {fit:,}" if fit >= 16 else
                "set a larger [solver] patch_size (fewer patches)")
+        solve = "" if columns is None else f" with the solve of {int(columns):,} columns"
         raise SolveError(
-            f"the sampled transport of {n_patches:,} patches × {rays_per_patch:,} rays would "
-            f"need up to {_gib(est.peak_bytes)}, and {_gib(available)} of memory is "
+            f"the sampled transport of {n_patches:,} patches × {rays_per_patch:,} rays{solve} "
+            f"would need up to {_gib(est.peak_bytes)}, and {_gib(available)} of memory is "
             f"available: {fix}", file=file, key="solver.rays_per_patch")
     return est
 

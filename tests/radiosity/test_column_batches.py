@@ -4,6 +4,8 @@ References are dense float64 solves written here with numpy."""
 
 from __future__ import annotations
 
+import re
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -11,7 +13,12 @@ import pytest
 
 from lumijax.errors import SolveError
 from lumijax.radiosity import build_operator, mesh_patches, partition, solve_radiosity
-from lumijax.radiosity._estimate import SOLVE_SHARE, solve_column_bytes
+from lumijax.radiosity._estimate import (
+    SOLVE_SHARE,
+    bound_sampled_memory,
+    solve_column_bytes,
+    solve_memory_bytes,
+)
 
 from .conftest import quad
 
@@ -130,3 +137,23 @@ def test_gradient_through_a_batched_solve(pair):
     ref = np.sum((f @ b) * lam, axis=1)
     np.testing.assert_allclose(g_whole, ref, rtol=1e-9)
     np.testing.assert_allclose(g_batched, g_whole, rtol=1e-12, atol=1e-14)
+
+
+def test_the_sampled_bound_counts_the_solve():
+    """1,080,114 patches × 256 rays: 3.32 GB of links (12 B each), 6.64 GB while assembled;
+    with 288 columns the solve's one-column batch (24 × 4 B × 1,179,648 padded patches) and
+    the results (12 B a patch and column) come on top of the stored links: 7.05 GB."""
+    links = 12 * 1_080_114 * 256
+    solve = 24 * 4 * 1_179_648 + 288 * 1_080_114 * 12
+    assert solve_memory_bytes(1_080_114, 288, 1, 4) == solve
+    est = bound_sampled_memory(1_080_114, 256, available=1 << 40, columns=288)
+    assert est.stored_bytes == links and est.peak_bytes == links + solve
+    assert bound_sampled_memory(1_080_114, 256, available=1 << 40).peak_bytes == 2 * links
+    # what fits for the operator alone is refused once the solve is counted
+    with pytest.raises(SolveError, match="rays_per_patch") as err:
+        bound_sampled_memory(1_080_114, 256, available=links + solve - 1, columns=288)
+    assert "288 columns" in str(err.value)
+    rays = int(re.search(r"rays_per_patch ≤ ([\d,]+)", str(err.value))[1].replace(",", ""))
+    assert 150 < rays < 256  # (0.9 × available − solve) / 12 B a patch: ≈ 200; it fits
+    bound_sampled_memory(1_080_114, rays, available=links + solve - 1, columns=288)
+    bound_sampled_memory(1_080_114, 256, available=links + solve - 1)
