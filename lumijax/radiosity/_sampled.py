@@ -23,8 +23,8 @@ pane itself is not hit, so its own diffuse reflection (``reflectance``, which sh
 near it for clear glass: docs/materials.md) is not seen, and the rows still sum to at most 1.
 
 The work is cut into batches of patches (:func:`sample_batch`: a batch in, three link arrays
-out, independent of every other batch) so that a cluster can map it; :func:`build_sampled`
-runs them in order and assembles the operator.
+out, independent of every other batch): :func:`build_sampled` maps them over the current
+executor (one task a batch on a Dask cluster, in order here) and assembles the operator.
 """
 
 from __future__ import annotations
@@ -369,7 +369,11 @@ def build_sampled(
         Called with (patches done, patches) after every batch.
     batches
         Optional runner ``batches(fn, [(start, stop), ...]) -> [result, ...]`` for the batch
-        function ``fn(start, stop)`` (a cluster's map); default: in order, here.
+        function ``fn(start, stop)``; default: the current executor
+        (:func:`~lumijax.parallel.current_executor`): on a Dask cluster every batch is a task
+        (the patches, locator and caster sent once per worker, the Embree scene built once
+        there), here the batches run in order. The links are the same either way, bit for bit:
+        a batch depends only on its own span and the seed.
     """
     from ..scene._raycast import RayCaster
 
@@ -385,8 +389,19 @@ def build_sampled(
     def one(a, b):
         return sample_batch(patches, caster, a, b, s, locator, front)
 
+    from ..parallel import current_executor
+
+    ex = current_executor()
     if batches is not None:
         parts = list(batches(one, spans))
+    elif ex.distributed and len(spans) > 1:
+        parts = []
+        for (_, b), part in zip(spans, ex.map(_batch_task, spans, shared=dict(
+                patches=patches, caster=caster, settings=s, locator=locator, front=front)),
+                                strict=True):
+            parts.append(part)
+            if progress is not None:
+                progress(b, patches.n)
     else:
         parts = []
         for a, b in spans:
@@ -416,6 +431,11 @@ def build_sampled(
     area = jnp.asarray(patches.area, dtype=jnp.float64 if jax.config.jax_enable_x64 else None)
     return TransportOperator((bucket,), area, jnp.zeros(patches.n, jnp.int32), patches.n, 1,
                              info)
+
+
+def _batch_task(span, *, patches, caster, settings, locator, front):
+    """One batch of :func:`build_sampled` on a cluster's worker."""
+    return sample_batch(patches, caster, span[0], span[1], settings, locator, front)
 
 
 def sampled_bytes(n_patches: int, rays_per_patch: int) -> int:
