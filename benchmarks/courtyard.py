@@ -7,6 +7,9 @@
                                        # one level, ray-sampled form factors (docs/radiosity.md):
                                        # 200,114 patches at LoD 0 (the default target 140,000;
                                        # the columns' slivers add the rest), 256 rays a patch
+    python benchmarks/courtyard.py --operator-patches 0 --transport sampled --lod 3 \
+        --spectral-samples 16 --memory-gib 16   # issue 17's LoD-3 target: 1,080,114 patches,
+                                       # 288 columns solved in batches sized from 16 GiB
 
 Generates the study (studies/courtyard/make_courtyard.py) into a temporary folder, then runs the
 stages of ``lumijax.compute`` one after the other in this process: load (config + scene), then
@@ -81,7 +84,12 @@ def main(argv=None) -> None:
     p.add_argument("--transport", choices=("blocks", "sampled"), default="blocks")
     p.add_argument("--rays-per-patch", type=int, default=256, help="sampled transport")
     p.add_argument("--stop-after", default=None, help="stage name to stop after")
+    p.add_argument("--memory-gib", type=float, default=None,
+                   help="the memory the run may take (LUMIJAX_MEMORY_BYTES): the refusals and "
+                        "the solve's column batches are sized from it")
     args = p.parse_args(argv)
+    if args.memory_gib is not None:
+        os.environ["LUMIJAX_MEMORY_BYTES"] = str(int(args.memory_gib * 2**30))
 
     gen = _generator()
     c = dataclasses.replace(
@@ -169,6 +177,13 @@ def main(argv=None) -> None:
     rays = stage("gather rays", lambda: stg.cast_gather_rays(points, normals, meshed, sc,
                                                             settings, quiet),
                  lambda g: f"{c.gather_rays} rays/point")
+    from lumijax.radiosity._estimate import available_memory_bytes, solve_column_batch
+
+    cols = len(emission.spectra) * max(sampling.spectral.n, 1)
+    per = solve_column_batch(meshed.patches.n, cols,
+                             np.dtype(transport.operator.area.dtype).itemsize)
+    print(f"  solve: {cols} columns, at most {per} a batch "
+          f"({available_memory_bytes() / 2**30:.1f} GiB available)", flush=True)
     radiosity = stage("solve (all networks) + gather",
                       lambda: stg.solve(sc, points, normals, emission, direct, meshed,
                                         transport, sampling, rays, settings),
