@@ -244,8 +244,9 @@ class AimLight(eqx.Module):
         if self.lu is not None:
             return jax.scipy.linalg.lu_solve(self.lu, w.T.astype(self.lu[0].dtype),
                                              trans=1).T.astype(w.dtype)
-        _, pull = jax.vjp(self.reflect, jnp.zeros(self.rho.shape[0], w.dtype))
-        return jax.vmap(lambda r: pull(r)[0])(w).astype(w.dtype)
+        out, pull = jax.vjp(self.reflect, jnp.zeros(self.rho.shape[0], w.dtype))
+        # a cotangent has its output's dtype: the operator's (float32 rows for a float32 study)
+        return jax.vmap(lambda r: pull(r.astype(out.dtype))[0])(w).astype(w.dtype)
 
 
 DENSE_PATCHES = 6000

@@ -81,3 +81,31 @@ def test_dense_reflection_equals_the_krylov_solve(facade_results):
                                    atol=1e-6 * float(jnp.max(b1)))
         np.testing.assert_allclose(np.asarray(e1), np.asarray(e2), rtol=0,
                                    atol=1e-6 * float(jnp.max(e1)))
+
+
+def test_the_krylov_branch_gives_the_dense_jacobian(facade_results):
+    """Above ``DENSE_PATCHES`` the aim model pulls the constraints' float64 rows back through
+    the study's Krylov solve (a float32 operator here): the same Jacobian as the dense LU's.
+    (The pull-back once failed on the cotangent's dtype: float64 rows against the solve's
+    float32 output; only the 8-bay courtyard, 7,264 patches, took that branch.) The facade is
+    float64; its form factors are cast to float32 for the Krylov branch, as a float32 study's
+    are stored."""
+    study, results = facade_results
+    with float64_scope():
+        problem, params = _problem(study, results, ["dimmers", "aims"])
+        krylov = eqx.tree_at(lambda p: p.model.lu, problem, None, is_leaf=lambda v: v is None)
+
+        def f32(a):
+            return a.astype(jnp.float32) if eqx.is_inexact_array(a) else a
+
+        krylov = eqx.tree_at(lambda p: p.model.transport.buckets, krylov,
+                             jax.tree.map(f32, krylov.model.transport.buckets))
+        assert problem.model.lu is not None and krylov.model.lu is None
+        x = jnp.asarray(np.clip(np.asarray(params.x0) + 0.05, params.lower, params.upper))
+        smooth = jnp.asarray(1e-2)
+        g1, j1 = _g_and_jac_traced(problem, x, smooth)
+        g2, j2 = _g_and_jac_traced(krylov, x, smooth)
+        scale = float(jnp.max(jnp.abs(j1)))
+        # float32 form factors and the Krylov solve's tolerance: agreement to ~1e-4, not 1e-12
+        np.testing.assert_allclose(np.asarray(g2), np.asarray(g1), rtol=3e-4, atol=1e-5)
+        np.testing.assert_allclose(np.asarray(j2), np.asarray(j1), rtol=0, atol=1e-4 * scale)
