@@ -45,31 +45,45 @@ def _dimmer_problem(cons, a):
                          cons, objective_scale=float(POWER.sum()))
 
 
+def three_dimmer_problem():
+    """test_constrained's three networks with Eavg ≥ 220, Emin ≥ 50, U0 ≥ 0.3 (every method's
+    first check): the light matrix and the problem."""
+    a = _light()
+    n = a.shape[1]
+    return a, _dimmer_problem((_c(GridAverage, 220.0, 0, n), _c(GridMinimum, 50.0, 0, n),
+                               _c(GridUniformity, 0.3, 0, n)), a)
+
+
+def meets_the_lp_and_slsqp(method: str, *, violation: float, rel: float):
+    """``method`` on :func:`three_dimmer_problem` checked against HiGHS's LP (the exact optimum
+    and active set) and SLSQP (the KKT prices); ``violation`` and ``rel`` are the method's own
+    tolerances (margins; objective vs SLSQP). Returns its result."""
+    a, prob = three_dimmer_problem()
+    res = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3), method=method)
+    sq = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3), method="slsqp")
+    lp = _lp(a, POWER, avg=220.0, emin=50.0, u0=0.3)
+    assert res.method == method and res.success
+    assert res.violation <= violation
+    assert res.objective == pytest.approx(lp.fun, rel=2e-3)
+    assert res.objective == pytest.approx(sq.objective, rel=rel)
+    e = res.x @ a  # the design itself, not the solver's margins
+    assert e.mean() >= 220 * (1 - violation) and e.min() >= 50 * (1 - violation)
+    assert e.min() / e.mean() >= 0.3 * (1 - violation)
+    mean = a.mean(axis=1)
+    lp_active = [abs(lp.x @ mean - 220) < 1e-6, abs((lp.x @ a).min() - 50) < 1e-6 * 50,
+                 abs((lp.x @ a).min() / (lp.x @ mean) - 0.3) < 1e-6]
+    assert list(res.active) == lp_active == list(sq.active)
+    # the prices are the KKT multipliers SLSQP's NNLS recovers
+    np.testing.assert_allclose(res.prices, sq.prices, rtol=0.02, atol=1e-9)
+    return res
+
+
 def test_augmented_lagrangian_meets_the_lp_and_slsqp():
     """Eavg ≥, Emin ≥, U0 ≥ over three dimmers (linear per point: the LP is the exact optimum,
     test_constrained's problem): the augmented Lagrangian's least power is the LP's within the
     aggregation's ε, its active set the LP's, its multipliers SLSQP's KKT multipliers."""
-    a = _light()
-    n = a.shape[1]
-    prob = _dimmer_problem((_c(GridAverage, 220.0, 0, n), _c(GridMinimum, 50.0, 0, n),
-                            _c(GridUniformity, 0.3, 0, n)), a)
-    al = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3),
-                           method="augmented_lagrangian")
-    sq = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3), method="slsqp")
-    lp = _lp(a, POWER, avg=220.0, emin=50.0, u0=0.3)
-    assert al.method == "augmented_lagrangian" and al.success
-    assert al.violation <= 1e-6
-    assert al.objective == pytest.approx(lp.fun, rel=2e-3)
-    assert al.objective == pytest.approx(sq.objective, rel=1e-3)
-    e = al.x @ a  # the design itself, not the solver's margins
-    assert e.mean() >= 220 * (1 - 1e-6) and e.min() >= 50 * (1 - 1e-6)
-    assert e.min() / e.mean() >= 0.3 * (1 - 1e-6)
-    mean = a.mean(axis=1)
-    lp_active = [abs(lp.x @ mean - 220) < 1e-6, abs((lp.x @ a).min() - 50) < 1e-6 * 50,
-                 abs((lp.x @ a).min() / (lp.x @ mean) - 0.3) < 1e-6]
-    assert list(al.active) == lp_active == list(sq.active)
-    # λ of the last multiplier update are the KKT multipliers SLSQP's NNLS recovers
-    np.testing.assert_allclose(al.prices, sq.prices, rtol=0.02, atol=1e-9)
+    met = meets_the_lp_and_slsqp("augmented_lagrangian", violation=1e-6, rel=1e-3)
+    assert met.evaluations > 0
 
 
 def test_augmented_lagrangian_price_predicts_a_resolve():

@@ -14,46 +14,27 @@ import pytest
 from lumijax.lighting._solution import float64_scope
 from lumijax.optimise._augmented import CONSTRAINED_METHODS
 from lumijax.optimise._constrained import solve_constrained
-from lumijax.optimise._constraints import GridAverage, GridMinimum, GridUniformity
+from lumijax.optimise._constraints import GridAverage, GridUniformity
 from lumijax.optimise._mma import solve_mma
 
-from .test_augmented import _aim_problem, _dimmer_problem
-from .test_constrained import POWER, _c, _light, _lp
+from .test_augmented import _aim_problem, meets_the_lp_and_slsqp, three_dimmer_problem
 
 jax.config.update("jax_enable_x64", True)
 
-
-def _problem():
-    a = _light()
-    n = a.shape[1]
-    return a, _dimmer_problem((_c(GridAverage, 220.0, 0, n), _c(GridMinimum, 50.0, 0, n),
-                               _c(GridUniformity, 0.3, 0, n)), a)
 
 
 def test_mma_meets_the_lp_and_slsqp():
     """Eavg ≥, Emin ≥, U0 ≥ over three dimmers (linear per point: the LP is the exact optimum):
     the least power is the LP's within the aggregation's ε, the active set the LP's, the
     prices SLSQP's KKT prices; measured 12 steps, 14 evaluations (SLSQP: 10)."""
-    a, prob = _problem()
-    mm = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3), method="mma")
-    sq = solve_constrained(prob, np.ones(3), np.zeros(3), np.ones(3), method="slsqp")
-    lp = _lp(a, POWER, avg=220.0, emin=50.0, u0=0.3)
-    assert mm.method == "mma" and mm.success
-    assert mm.violation <= 1e-4
-    assert mm.objective == pytest.approx(lp.fun, rel=2e-3)
-    assert mm.objective == pytest.approx(sq.objective, rel=1e-4)
-    e = mm.x @ a  # the design itself, not the solver's margins
-    assert e.mean() >= 220 * (1 - 1e-4) and e.min() >= 50 * (1 - 1e-4)
-    assert list(mm.active) == list(sq.active)
-    assert mm.active.any()
-    np.testing.assert_allclose(mm.prices, sq.prices, rtol=0.02, atol=1e-9)
+    mm = meets_the_lp_and_slsqp("mma", violation=1e-4, rel=1e-4)
     assert mm.evaluations <= 20  # the regression bound: one evaluation a step, few steps
 
 
 def test_gcmma_inner_checks_reach_the_same_optimum():
     """With GCMMA's conservativity checks (``inner``) the same optimum; the checks are
     counted among the evaluations."""
-    _, prob = _problem()
+    _, prob = three_dimmer_problem()
     plain = solve_mma(prob, np.ones(3), np.zeros(3), np.ones(3))
     checked = solve_mma(prob, np.ones(3), np.zeros(3), np.ones(3), inner=8)
     assert checked.success and plain.success
