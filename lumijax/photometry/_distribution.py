@@ -23,7 +23,7 @@ __all__ = ["CandelaDistribution"]
 _TYPES = ("C", "B", "A")
 _LUT_SIZE = (1 << 16) + 1  # the most entries a cell lookup table has (_cell_lut)
 _KERNELS: dict[tuple, tuple] = {}  # CandelaDistribution.kernel's tables, by their arrays' ids
-_KERNELS_KEPT = 256
+_KERNELS_KEPT = 64  # ~0.8 MB each (the lookup tables at full size): at most ~50 MB kept
 
 
 def _is_concrete(*xs) -> bool:
