@@ -138,7 +138,8 @@ class DaskExecutor(Executor):
     ``distributed.scheduler.allowed-failures`` times, 3 by default); a task that exhausts
     them, or a cluster that goes away, raises :class:`ClusterError`. A task the cluster
     cancels instead (``FutureCancelledError``, seen under load after a worker was killed) is
-    sent again with its shared inputs scattered afresh, up to ``max_resubmits`` times per
+    sent again with its shared inputs scattered afresh, together with every task of the
+    ``map`` not yet finished (they need the same inputs), up to ``max_resubmits`` rounds per
     ``map``, then raises :class:`ClusterError`. Errors a task raises
     itself (a ``LumijaxError`` about the input) pass through unchanged.
 
@@ -162,7 +163,7 @@ class DaskExecutor(Executor):
         self.submitted: collections.Counter[str] = collections.Counter()
         self._shared: dict[int, tuple[Any, Any]] = {}  # id → (object kept alive, its future)
         self._x64: bool | None = None  # the precision the workers were last set to
-        #: tasks one ``map`` may send again after the cluster cancelled them
+        #: rounds of resending one ``map`` may make after the cluster cancelled its tasks
         self.max_resubmits = 3
 
     @property
@@ -228,15 +229,22 @@ class DaskExecutor(Executor):
                         out = futures[k].result()
                         break
                     except CancelledError as e:
-                        # seen under load after a worker was killed: the scheduler forgot the
-                        # task (or the scattered input it needs) instead of re-running it, so
-                        # it is sent again with its inputs shared afresh
+                        # a worker died holding the only copy of a scattered input (the
+                        # scheduler's memory manager keeps one replica of a broadcast value
+                        # once no task waits on it), so every task needing it was cancelled,
+                        # not only this one: all that have not finished are sent again at once,
+                        # with the inputs scattered afresh, as one round
                         if resubmitted >= self.max_resubmits:
                             raise self._lost(e) from None
                         resubmitted += 1
                         self._shared.clear()
+                        again = [k] + [j for j in range(k + 1, len(futures))
+                                       if futures[j].status != "finished"]
+                        for j in again[1:]:
+                            futures[j].cancel()
                         try:
-                            futures[k] = submit([items[k]])[0]
+                            for j, f in zip(again, submit([items[j] for j in again])):
+                                futures[j] = f
                         except (OSError, TimeoutError) as e2:
                             raise self._lost(e2) from None
                     except (KilledWorker, OSError, TimeoutError) as e:
