@@ -649,5 +649,20 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
+def entry() -> None:
+    """The ``lumijax`` command: :func:`main`, then exit with its status.
+
+    Before the interpreter exits, every object is frozen out of the garbage collector
+    (``gc.freeze``): its final collections would otherwise walk all that JAX and the compute
+    made, 0.3–0.7 s of a small study's 3 s run (benchmarks/RESULTS.md, session 10). The
+    memory is the OS's to reclaim. Not in :func:`main`, which tests and scripts call.
+    """
+    import gc
+
+    status = main()
+    gc.freeze()
+    sys.exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

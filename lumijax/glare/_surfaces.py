@@ -130,9 +130,7 @@ def build_seen_surfaces(scene, observers, patches, surface_names, *,
     """The :class:`SeenSurfaces` of ``observers`` (:class:`~lumijax.glare.Observer`) over the
     radiosity ``patches`` of ``scene``; ``surface_names[i]`` is geometry item i's name (None:
     unnamed, not reported). ``limits``: ``(observer name, surface name, cd/m²)``."""
-    from scipy.spatial import cKDTree
-
-    from ..radiosity._gather import _patch_of_hits
+    from ..radiosity._gather import patch_of_hits
 
     names = tuple(dict.fromkeys(n for n in surface_names if n))
     item_surface = np.array([names.index(n) if n else -1 for n in surface_names], np.int64)
@@ -140,8 +138,6 @@ def build_seen_surfaces(scene, observers, patches, surface_names, *,
     obs_names = tuple(o.name for o in observers)
     links = []
     if caster is not None and patches is not None and patches.n and names:
-        tree = cKDTree(patches.centroid)
-        src_tri = np.asarray(patches.source_triangle)
         tri_item = np.asarray(scene.triangles.item)
         for i, o in enumerate(observers):
             dirs = np.concatenate([_field_directions(np.asarray(f, np.float64), rays)
@@ -159,7 +155,7 @@ def build_seen_surfaces(scene, observers, patches, surface_names, *,
             if not hit.any():
                 continue
             points = origins[hit] + dirs[hit] * dist[hit, None]
-            patch = _patch_of_hits(tree, src_tri, points, tri[hit])
+            patch = patch_of_hits(patches, points, tri[hit])
             surf = item_surface[tri_item[tri[hit]]]
             pairs = np.unique(np.stack([patch, surf], axis=1), axis=0)
             links.append(np.column_stack([np.full(len(pairs), i), pairs]))

@@ -33,7 +33,7 @@ from jaxtyping import Float
 
 from ..kernels import length_tolerance
 from ..parallel import Executor, current_executor
-from ._gather import GatherOperator
+from ._gather import GatherOperator, patch_of_hits
 
 __all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather",
            "fine_transmission", "reflect_onto_fine"]
@@ -126,7 +126,7 @@ def _fine_chunk(span, *, origins, normals, local, elements, caster, tri_normals,
     hit = tri >= 0
     # one-sided surfaces, as in build_gather: a back face blocks but sends nothing
     hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
-    elem = _element_of(elements, o[hit] + dirs[hit] * dist[hit, None], tri[hit])
+    elem = patch_of_hits(elements, o[hit] + dirs[hit] * dist[hit, None], tri[hit])
     key = np.repeat(np.arange(len(p), dtype=np.int64), rays)[hit] * elements.n + elem
     uniq, inverse = np.unique(key, return_inverse=True)
     counts = np.bincount(inverse.ravel(), weights=carried[hit], minlength=len(uniq))
@@ -219,40 +219,7 @@ def element_means(fine, elements, values: Float[np.ndarray, "src fine"]):
 
 def element_of(fine, elements) -> np.ndarray:
     """Index of the element holding each fine patch (same source triangle, nearest centroid)."""
-    return _element_of(elements, fine.centroid, np.asarray(fine.source_triangle))
-
-
-def _element_of(elements, points, tri, few: int = 64, block: int = 65_536) -> np.ndarray:
-    """The element of triangle ``tri`` whose centroid is nearest each point.
-
-    A triangle's elements are contiguous (``mesh_patches`` keeps them in order), and at the
-    coarse level most triangles are one element: those are a lookup, triangles of up to ``few``
-    elements a padded brute-force search, and only larger ones (the ground) a k-d tree. (The
-    tree alone, as in ``build_gather``, falls back to a Python loop whenever a big element's
-    centroid is farther than 16 small neighbours' — most hits, on a courtyard.)
-    """
-    src = np.asarray(elements.source_triangle)
-    lo = np.searchsorted(src, tri, side="left")
-    n = np.searchsorted(src, tri, side="right") - lo
-    out = lo.astype(np.int64)
-    c = elements.centroid
-    for top in (4, 16, few):  # pad each bucket only to its own largest triangle
-        sel = np.flatnonzero((n > 1) & (n <= top) & (n > top // 4 if top > 4 else True))
-        for b in range(0, len(sel), block):
-            i = sel[b:b + block]
-            cand = lo[i, None] + np.arange(int(n[i].max()))[None]
-            valid = cand < (lo[i] + n[i])[:, None]
-            v = c[np.where(valid, cand, lo[i, None])] - points[i, None]
-            d = np.where(valid, np.einsum("hkc,hkc->hk", v, v), np.inf)
-            out[i] = cand[np.arange(len(i)), np.argmin(d, axis=1)]
-    many = np.flatnonzero(n > few)
-    if len(many):
-        from scipy.spatial import cKDTree
-
-        from ._gather import _patch_of_hits
-
-        out[many] = _patch_of_hits(cKDTree(c), src, points[many], tri[many])
-    return out
+    return patch_of_hits(elements, fine.centroid, np.asarray(fine.source_triangle))
 
 
 def final_gather(

@@ -108,12 +108,9 @@ def build_gather(
         Rays per point; the statistical error of a smooth field falls like 1/rays for this
         stratified set, about 1 % at 512.
     """
-    from scipy.spatial import cKDTree
-
     points = np.asarray(points, np.float64)
     rng = np.random.default_rng(seed)
     local = _cosine_directions(rays)
-    tree = cKDTree(patches.centroid)
     src_tri = np.asarray(patches.source_triangle)
     tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
     tri_normals[src_tri] = patches.normal
@@ -129,7 +126,7 @@ def build_gather(
         # surfaces are one-sided: a ray meeting a patch's back sees no light (it is still blocked)
         hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
         hit_points = origins[hit] + dirs[hit] * dist[hit, None]
-        patch = _patch_of_hits(tree, src_tri, hit_points, tri[hit])
+        patch = patch_of_hits(patches, hit_points, tri[hit])
         rows.append(np.repeat(np.arange(s, s + len(p)), rays)[hit])
         cols.append(patch)
         carry.append(carried[hit])
@@ -149,8 +146,58 @@ def build_gather(
     )
 
 
-def _patch_of_hits(tree, src_tri, hit_points, hit_tri, k: int = 16):
-    """The patch holding each hit: the nearest patch centroid cut from the hit triangle."""
+def patch_of_hits(patches, points, tri, *, few: int = 256,
+                  budget: int = 1 << 22) -> Int[np.ndarray, " hits"]:
+    """The patch of triangle ``tri`` whose centroid is nearest each point (m): where a ray
+    that hit triangle ``tri`` at ``points`` lands.
+
+    A triangle's patches are contiguous (``mesh_patches`` keeps them in order): a triangle of
+    one patch is a lookup, of up to 16 a padded brute-force search, of up to ``few`` a search
+    per triangle hit by one matrix product (``budget`` distances at a time), and only larger
+    ones (a courtyard's ground) a k-d tree. No scipy.spatial (~0.3 s to import) unless such a
+    triangle is hit. (The tree alone falls back to a Python loop whenever a big patch's
+    centroid is farther than 16 small neighbours' — most hits, on a courtyard.)
+    """
+    src = np.asarray(patches.source_triangle)
+    tri = np.asarray(tri)
+    points = np.asarray(points, np.float64)
+    lo = np.searchsorted(src, tri, side="left")
+    n = np.searchsorted(src, tri, side="right") - lo
+    out = lo.astype(np.int64)
+    c = patches.centroid
+    for top, floor in ((4, 1), (16, 4)):  # pad each bucket only to its own largest triangle
+        sel = np.flatnonzero((n > floor) & (n <= min(top, few)))
+        for b in range(0, len(sel), budget // top):
+            i = sel[b:b + budget // top]
+            cand = lo[i, None] + np.arange(int(n[i].max()))[None]
+            valid = cand < (lo[i] + n[i])[:, None]
+            v = c[np.where(valid, cand, lo[i, None])] - points[i, None]
+            d = np.where(valid, np.einsum("hkc,hkc->hk", v, v), np.inf)
+            out[i] = cand[np.arange(len(i)), np.argmin(d, axis=1)]
+    mid = np.flatnonzero((n > 16) & (n <= few))
+    if len(mid):
+        order = mid[np.argsort(tri[mid], kind="stable")]
+        cut = np.flatnonzero(np.diff(tri[order])) + 1
+        for hits in np.split(order, cut):
+            own = c[lo[hits[0]]:lo[hits[0]] + n[hits[0]]]
+            o = own[0]  # re-centred: |p − c|² from products keeps its digits at site coordinates
+            co = own - o
+            cc = (co * co).sum(1)
+            for s in range(0, len(hits), max(1, budget // len(own))):
+                h = hits[s:s + budget // len(own)]
+                d = cc[None] - 2.0 * ((points[h] - o) @ co.T)  # |p − c|² − |p|²
+                out[h] = lo[h] + np.argmin(d, axis=1)
+    many = np.flatnonzero(n > few)
+    if len(many):
+        from scipy.spatial import cKDTree
+
+        out[many] = _patch_by_tree(cKDTree(c), src, points[many], tri[many])
+    return out
+
+
+def _patch_by_tree(tree, src_tri, hit_points, hit_tri, k: int = 16):
+    """:func:`patch_of_hits` by a k-d tree of every patch centroid: the nearest of the ``k``
+    nearest centroids cut from the hit triangle, else a search of its own patches."""
     if not len(hit_points):
         return np.zeros(0, np.int64)
     k = min(k, len(src_tri))
@@ -196,12 +243,9 @@ def build_sensor_gather(
     link weighs ``4 R(u)/N``. The weights of a point sum to the fraction of ``∫ R dω = π``
     (divided by π) that meets a patch: 1 in a closed room, as for the planar gather.
     """
-    from scipy.spatial import cKDTree
-
     points = np.asarray(points, np.float64)
     rng = np.random.default_rng(seed)
     local = _sphere_directions(rays)
-    tree = cKDTree(patches.centroid)
     src_tri = np.asarray(patches.source_triangle)
     tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
     tri_normals[src_tri] = patches.normal
@@ -220,7 +264,7 @@ def build_sensor_gather(
         hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
         hit_points = origins[hit] + dirs[hit] * dist[hit, None]
         rows.append(receiver[hit])
-        cols.append(_patch_of_hits(tree, src_tri, hit_points, tri[hit]))
+        cols.append(patch_of_hits(patches, hit_points, tri[hit]))
         wts.append(weight[hit] * carried[hit])
     point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)
     patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)

@@ -242,7 +242,7 @@ class PatchLocator:
 
         The points are given as positions (m), or as barycentric ``uv`` in their triangle (a
         ray caster's :meth:`~lumijax.scene.RayCaster.first_hit_uv`), or both."""
-        from ._final_gather import _element_of
+        from ._gather import patch_of_hits
 
         out = np.full(len(tri), -1, np.int64)
         one = self.count[tri] == 1
@@ -259,7 +259,7 @@ class PatchLocator:
                 out[b] = self._descend(pts[:len(b)], tri[b])
             miss = np.flatnonzero(out[need] < 0)
             if len(miss):
-                out[need[miss]] = _element_of(self.patches, pts[miss], tri[need[miss]])
+                out[need[miss]] = patch_of_hits(self.patches, pts[miss], tri[need[miss]])
         return out
 
     def _point(self, tri, uv):
