@@ -81,7 +81,7 @@ class DesignProblem(eqx.Module):
                              e, b, alpha, x)
             eye = jnp.eye(g.shape[0], dtype=g.dtype)
             w_e, w_b, w_alpha, w_x = jax.vmap(vjp)(eye)
-            return g, w_x + pull(w_e, w_b, w_alpha)
+            return g, w_x + pull_in_chunks(pull, (w_e, w_b, w_alpha), self.model.pull_rows())
         g, vjp = jax.vjp(lambda x: self.g(x, smooth), x)
         eye = jnp.eye(g.shape[0], dtype=g.dtype)
         return g, jax.vmap(lambda w: vjp(w)[0])(eye)
@@ -96,6 +96,24 @@ class DesignProblem(eqx.Module):
         """Whether :func:`_evaluate` serves every call at a point: all light models but the
         aim model, whose Jacobian costs 2.4 margins (SLSQP's line search asks f and g alone)."""
         return not isinstance(self.model, AimLight)
+
+
+def pull_in_chunks(pull, rows, size: int):
+    """``pull(*rows)`` of cotangent rows (every array's leading axis; None passes through),
+    ``size`` rows at a time in sequence (``jax.lax.map``), so that the pull-back's temporaries
+    are those of one chunk. ``pull`` is linear: the last chunk is padded with zero rows and the
+    padding sliced off."""
+    m = next(r.shape[0] for r in rows if r is not None)
+    if m <= size:
+        return pull(*rows)
+    n = -(-m // size)
+
+    def chunked(r):
+        pad = jnp.zeros((n * size - m, *r.shape[1:]), r.dtype)
+        return jnp.concatenate([r, pad]).reshape(n, size, *r.shape[1:])
+
+    out = jax.lax.map(lambda c: pull(*c), jax.tree.map(chunked, tuple(rows)))
+    return out.reshape(n * size, *out.shape[2:])[:m]
 
 
 @eqx.filter_jit

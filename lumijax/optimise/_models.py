@@ -223,6 +223,23 @@ class AimLight(eqx.Module):
 
         return e, b, alpha, pull
 
+    def pull_rows(self, budget_bytes: int | None = None) -> int:
+        """Cotangent rows one pull-back of :meth:`linearise` may take at once: each row holds a
+        few numbers per pair (its cotangent on the pair, times the light and both tangents)
+        and, with a Krylov reflection, a solve's work vectors per patch. All rows at once was
+        20 GB for the 8-bay courtyard's 37 constraints; rows beyond this count are pulled back
+        in a sequence of chunks (``jax.lax.map``). ``budget_bytes``: a quarter of the
+        available memory (``LUMIJAX_MEMORY_BYTES``) by default."""
+        if budget_bytes is None:
+            from ..radiosity._estimate import available_memory_bytes
+
+            budget_bytes = available_memory_bytes() // 4
+        pairs = sum(int(p.receiver.shape[0]) for p in self.pairs)
+        patches = 0 if self.rho is None else int(self.rho.shape[0])
+        krylov = self.transport is not None and self.lu is None
+        per_row = 8 * (6 * pairs + (48 if krylov else 4) * patches + 4 * self.n_receivers)
+        return max(1, int(budget_bytes // max(per_row, 1)))
+
     def reflect(self, b0: Float[Array, " patches"]) -> Float[Array, " patches"]:
         """``(I − ρF − τPF)⁻¹ B₀`` (lm/m²; the τ term with diffusers only, ``_transmission.py``)
         with the solve's row correction: by the LU factors when

@@ -109,3 +109,29 @@ def test_the_krylov_branch_gives_the_dense_jacobian(facade_results):
         # float32 form factors and the Krylov solve's tolerance: agreement to ~1e-4, not 1e-12
         np.testing.assert_allclose(np.asarray(g2), np.asarray(g1), rtol=3e-4, atol=1e-5)
         np.testing.assert_allclose(np.asarray(j2), np.asarray(j1), rtol=0, atol=1e-4 * scale)
+
+
+def test_the_pull_back_in_chunks_is_the_pull_back_at_once(facade_results):
+    """Constraints' rows pulled back a few at a time (``pull_in_chunks``, what keeps a large
+    study's Jacobian within memory) give the rows pulled back all at once, for chunk sizes
+    that divide the rows, leave a padded last chunk, or hold them all; a budget too small for
+    one row still pulls back one at a time."""
+    from lumijax.optimise._constrained import pull_in_chunks
+
+    study, results = facade_results
+    with float64_scope():
+        problem, params = _problem(study, results, ["dimmers", "aims", "levels"])
+        model = problem.model
+        x = jnp.asarray(np.clip(np.asarray(params.x0) + 0.05, params.lower, params.upper))
+        e, b, alpha, pull = model.linearise(x)
+        rng = np.random.default_rng(11)
+        rows = tuple(None if a is None else jnp.asarray(rng.normal(size=(5, *a.shape)))
+                     for a in (e, b, alpha))
+        full = np.asarray(pull(*rows))
+        assert full.shape == (5, x.shape[0]) and np.abs(full).max() > 0
+        for size in (1, 2, 3, 5, 8):
+            got = jax.jit(lambda r, size=size: pull_in_chunks(pull, r, size))(rows)
+            np.testing.assert_allclose(np.asarray(got), full, rtol=1e-12,
+                                       atol=1e-12 * np.abs(full).max())
+        assert model.pull_rows(budget_bytes=1) == 1
+        assert model.pull_rows(budget_bytes=1 << 40) > 5
