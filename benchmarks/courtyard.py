@@ -20,6 +20,10 @@ and writing results. With ``--operator-patches`` (default: the full study's, two
 docs/radiosity.md) the operator and the solve run on coarse elements and the fine stages follow:
 direct light on the fine patches (the elements get its area means), the coarse solve, then the
 fine gather rays and the reflection onto the fine patches, and patches.vtp of the fine level.
+With ``--progress``, each stage that reports progress (direct light, gather rays, the solve's
+columns) is checked against the progress bar's rule (``lumijax.cli._time_left``: the stage's
+rate since its first chunk was done): the time left it would have shown at 25/50/75/90 % of the
+stage, beside the time the stage then really took.
 A sampling thread reads the process RSS every 20 ms, so each stage reports its
 own peak (not only the process high-water mark); the table prints the peak and its rise over
 the RSS at the stage's start. Without a cache: every run builds the operator.
@@ -84,6 +88,8 @@ def main(argv=None) -> None:
     p.add_argument("--transport", choices=("blocks", "sampled"), default="blocks")
     p.add_argument("--rays-per-patch", type=int, default=256, help="sampled transport")
     p.add_argument("--stop-after", default=None, help="stage name to stop after")
+    p.add_argument("--progress", action="store_true",
+                   help="check the progress bar's time left against each stage's real end")
     p.add_argument("--memory-gib", type=float, default=None,
                    help="the memory the run may take (LUMIJAX_MEMORY_BYTES): the refusals and "
                         "the solve's column batches are sized from it")
@@ -109,9 +115,12 @@ def main(argv=None) -> None:
     rows: list[tuple[str, float, int, int, str]] = []
     st: dict = {}
 
+    events: list[tuple[float, int, int]] = []
+
     def stage(name, fn, note=lambda r: ""):
         base = _rss()
         sampler.peak = base
+        events.clear()
         t = time.perf_counter()
         out = fn()
         dt = time.perf_counter() - t
@@ -119,6 +128,8 @@ def main(argv=None) -> None:
         rows.append((name, dt, sampler.peak, sampler.peak - base, note(out)))
         print(f"  {name}: {dt:.1f} s, peak RSS {sampler.peak / 2**30:.2f} GiB "
               f"(+{(sampler.peak - base) / 2**30:.2f}) {note(out)}", flush=True)
+        if args.progress and events:
+            print(f"    {_progress_truth(events, t + dt)}", flush=True)
         if args.stop_after == name:
             _table(rows, c, st)
             sys.exit(0)
@@ -135,7 +146,9 @@ def main(argv=None) -> None:
                               gather_rays=c.gather_rays, spectral_samples=c.spectral_samples,
                               operator_patches=c.operator_patches, transport=args.transport,
                               rays_per_patch=args.rays_per_patch)
-    quiet = lambda done, total: None  # noqa: E731
+    def quiet(done, total):  # the stages' progress, kept for --progress
+        events.append((time.perf_counter(), done, total))
+
     emission = stg.group_emission(sc)
     st.update(luminaires=len(sc.luminaires), networks=len(sc.networks),
               groups=len(emission.spectra), points=len(points), triangles=len(sc.triangles))
@@ -186,7 +199,7 @@ def main(argv=None) -> None:
           f"({available_memory_bytes() / 2**30:.1f} GiB available)", flush=True)
     radiosity = stage("solve (all networks) + gather",
                       lambda: stg.solve(sc, points, normals, emission, direct, meshed,
-                                        transport, sampling, rays, settings),
+                                        transport, sampling, rays, settings, quiet),
                       lambda r: f"{len(emission.spectra)} emission groups × "
                                 f"{sampling.spectral.n} λ, "
                                 f"{r.stats()['columns_solved']} columns solved, "
@@ -221,6 +234,24 @@ def main(argv=None) -> None:
               lambda path: f"{path.stat().st_size / 2**20:.0f} MiB")
     sampler.running = False
     _table(rows, c, st)
+
+
+def _progress_truth(events, end: float) -> str:
+    """What the progress bar's time left said at 25/50/75/90 % of a stage against the time
+    the stage really had left (s): the bar's task starts at the stage's first report."""
+    from lumijax.cli import _time_left
+
+    t0, out = events[0][0], []
+    first = next(((t - t0, d) for t, d, _ in events if d > 0), None)
+    for frac in (0.25, 0.5, 0.75, 0.9):
+        at = next(((t, d, n) for t, d, n in events if n and d >= frac * n), None)
+        if at is None or at[0] <= t0:
+            continue
+        left = _time_left(at[0] - t0, at[1], at[2], first)
+        if left is not None:
+            out.append(f"{frac:.0%}: {left:.1f} s left shown, {end - at[0]:.1f} s taken")
+    return ("time left " + "; ".join(out)) if out else (
+        f"time left: {len(events)} report(s), too few to check")
 
 
 def _table(rows, c, st) -> None:

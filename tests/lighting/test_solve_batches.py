@@ -55,3 +55,14 @@ def test_patch_stage_reports_patches(write_study, monkeypatch):
     (10.0, 1, 4, 30.0), (60.0, 3, 3, 0.0), (5.0, 0, 9, None), (5.0, 2, None, None)])
 def test_time_left_is_the_rate_so_far(elapsed, done, total, left):
     assert _time_left(elapsed, done, total) == left
+
+
+@pytest.mark.parametrize(("elapsed", "done", "first", "left"), [
+    # the first of 4 chunks took 10 s (compiling), the second 1 s: 2 s left, not 10
+    (11.0, 2, (10.0, 1), 2.0),
+    # nothing done since the first report: the rate so far, first chunk included
+    (10.0, 1, (10.0, 1), 30.0),
+    # done, whatever the first chunk cost
+    (12.0, 4, (10.0, 1), 0.0)])
+def test_time_left_leaves_out_the_first_chunk_once_there_is_a_second(elapsed, done, first, left):
+    assert _time_left(elapsed, done, 4, first) == left
