@@ -51,6 +51,16 @@ def test_patch_stage_reports_patches(write_study, monkeypatch):
     assert n > 80 and stage == [(0, n)] + [(min(k, n), n) for k in range(40, n + 40, 40)]
 
 
+def test_direct_light_reports_luminaires_not_photometries(write_study):
+    # three luminaires of one photometry: the old unit (photometries) gave one step of one
+    path = write_study(box_room('precision = "float64"\ntarget_patches = 60\ncache = false',
+                                networks=("a", "b", "c"), grid="nu = 4\nnv = 3"))
+    _, seen = _compute(path)
+    stage = [(d, t) for s, d, t in seen if s == "direct light"]
+    assert stage and stage[-1] == (3, 3) and {t for _, t in stage} == {3}
+    assert [d for d, _ in stage] == sorted(d for d, _ in stage)
+
+
 @pytest.mark.parametrize(("elapsed", "done", "total", "left"), [
     (10.0, 1, 4, 30.0), (60.0, 3, 3, 0.0), (5.0, 0, 9, None), (5.0, 2, None, None)])
 def test_time_left_is_the_rate_so_far(elapsed, done, total, left):
