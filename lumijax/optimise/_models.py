@@ -224,12 +224,16 @@ class AimLight(eqx.Module):
         return e, b, alpha, pull
 
     def pull_rows(self, budget_bytes: int | None = None) -> int:
-        """Cotangent rows one pull-back of :meth:`linearise` may take at once: each row holds a
-        few numbers per pair (its cotangent on the pair, times the light and both tangents)
-        and, with a Krylov reflection, a solve's work vectors per patch. All rows at once was
-        20 GB for the 8-bay courtyard's 37 constraints; rows beyond this count are pulled back
-        in a sequence of chunks (``jax.lax.map``). ``budget_bytes``: a quarter of the
-        available memory (``LUMIJAX_MEMORY_BYTES``) by default."""
+        """Cotangent rows one pull-back of :meth:`linearise` may take at once: each row holds
+        numbers per pair (its cotangent on the pair, times the light and both tangents, and
+        XLA's temporaries of them) and, with a Krylov reflection, a solve's work vectors per
+        patch. Rows beyond this count are pulled back in a sequence of chunks
+        (``jax.lax.map``). ``budget_bytes``: a quarter of the available memory
+        (``LUMIJAX_MEMORY_BYTES``) by default.
+
+        The 40 float64 numbers a pair a row are measured (8-bay courtyard, 1,632,806 pairs,
+        7,264 patches, Krylov, alone): all 37 rows at once peaked at 20.9 GiB (0.51 GB a row,
+        39 a pair), chunks of 4 at 3.7 GiB (0.3 GB a row over a 2.5 GiB base)."""
         if budget_bytes is None:
             from ..radiosity._estimate import available_memory_bytes
 
@@ -237,7 +241,7 @@ class AimLight(eqx.Module):
         pairs = sum(int(p.receiver.shape[0]) for p in self.pairs)
         patches = 0 if self.rho is None else int(self.rho.shape[0])
         krylov = self.transport is not None and self.lu is None
-        per_row = 8 * (6 * pairs + (48 if krylov else 4) * patches + 4 * self.n_receivers)
+        per_row = 8 * (40 * pairs + (48 if krylov else 4) * patches + 4 * self.n_receivers)
         return max(1, int(budget_bytes // max(per_row, 1)))
 
     def reflect(self, b0: Float[Array, " patches"]) -> Float[Array, " patches"]:
