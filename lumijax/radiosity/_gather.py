@@ -152,8 +152,9 @@ def patch_of_hits(patches, points, tri, *, few: int = 256,
     that hit triangle ``tri`` at ``points`` lands.
 
     A triangle's patches are contiguous (``mesh_patches`` keeps them in order): a triangle of
-    one patch is a lookup, of up to 16 a padded brute-force search, of up to ``few`` a search
-    per triangle hit by one matrix product (``budget`` distances at a time), and only larger
+    one patch is a lookup, of up to 64 a padded brute-force search (vectorised over every
+    triangle hit), of up to ``few`` a search per triangle hit by one matrix product (``budget``
+    distances at a time: a Python loop over those triangles only), and only larger
     ones (a courtyard's ground) a k-d tree. No scipy.spatial (~0.3 s to import) unless such a
     triangle is hit. (The tree alone falls back to a Python loop whenever a big patch's
     centroid is farther than 16 small neighbours' — most hits, on a courtyard.)
@@ -165,7 +166,7 @@ def patch_of_hits(patches, points, tri, *, few: int = 256,
     n = np.searchsorted(src, tri, side="right") - lo
     out = lo.astype(np.int64)
     c = patches.centroid
-    for top, floor in ((4, 1), (16, 4)):  # pad each bucket only to its own largest triangle
+    for top, floor in ((4, 1), (16, 4), (64, 16)):  # pad a bucket to its own largest only
         sel = np.flatnonzero((n > floor) & (n <= min(top, few)))
         for b in range(0, len(sel), budget // top):
             i = sel[b:b + budget // top]
@@ -174,7 +175,7 @@ def patch_of_hits(patches, points, tri, *, few: int = 256,
             v = c[np.where(valid, cand, lo[i, None])] - points[i, None]
             d = np.where(valid, np.einsum("hkc,hkc->hk", v, v), np.inf)
             out[i] = cand[np.arange(len(i)), np.argmin(d, axis=1)]
-    mid = np.flatnonzero((n > 16) & (n <= few))
+    mid = np.flatnonzero((n > 64) & (n <= few))
     if len(mid):
         order = mid[np.argsort(tri[mid], kind="stable")]
         cut = np.flatnonzero(np.diff(tri[order])) + 1
