@@ -118,8 +118,7 @@ class PatchLocator:
         cand = np.flatnonzero(~self.grid[src] & (self.count[src] > 1))
         self.bisected = np.zeros(n_triangles, bool)
         self.root = np.full(n_triangles, -1, np.int64)
-        self.cut_m = np.zeros((0, 3))
-        self.cut_w = np.zeros((0, 3))
+        self.cut = np.zeros((0, 3))
         self.child = np.zeros((0, 2), np.int64)
         if len(cand):
             self._tree(cand, src, index)
@@ -160,7 +159,13 @@ class PatchLocator:
             cur = np.where(go[:, None, None], nxt, cur)
         r, m = self._cut(cur)
         nrm = np.cross(r[:, 1] - r[:, 0], r[:, 2] - r[:, 0])
-        self.cut_m, self.cut_w = m, np.cross(nrm, r[:, 2] - m)  # (p − m)·w = side of _replay
+        w = np.cross(nrm, r[:, 2] - m)  # (p − m)·w < 0: the second half, as in _replay
+        # p = v0 + u e1 + v e2 is affine in (u, v), so the side is too: c0 + c1 u + c2 v; the
+        # descent then reads Embree's barycentrics directly, never a 3-D point
+        t0 = self.triangles[nt]
+        self.cut = np.stack([np.einsum("ij,ij->i", t0[:, 0] - m, w),
+                             np.einsum("ij,ij->i", t0[:, 1] - t0[:, 0], w),
+                             np.einsum("ij,ij->i", t0[:, 2] - t0[:, 0], w)], axis=1)
         child = np.empty((len(node_key), 2), np.int64)
         for side in (0, 1):
             k = nt << shift | (2 * nc + side)
@@ -219,20 +224,23 @@ class PatchLocator:
             code = 2 * code + second
         return out
 
-    def _descend(self, points, tri) -> np.ndarray:
-        """The patch of a bisected triangle holding each point: down the tree of cuts."""
+    def _descend(self, uv, tri) -> np.ndarray:
+        """The patch of a bisected triangle holding each point (barycentric ``uv`` in its
+        triangle): down the tree of cuts."""
         out = np.full(len(tri), -1, np.int64)
-        node = self.root[tri]
-        live = np.arange(len(tri))
+        node, live = self.root[tri], np.arange(len(tri))
+        u, v = np.array(uv[:, 0], np.float64), np.array(uv[:, 1], np.float64)
+        c0, c1, c2 = self.cut.T.copy()
+        child = self.child.ravel()  # child[2 node + side]: one flat gather, not a 2-D one
         for _ in range(self._DEPTH + 1):
-            d = points[live] - self.cut_m[node]
-            side = (np.einsum("ij,ij->i", d, self.cut_w[node]) < 0).astype(np.int64)
-            nxt = self.child[node, side]
+            second = c0[node] + c1[node] * u + c2[node] * v < 0
+            nxt = child[2 * node + second]
             leaf = nxt < 0
             out[live[leaf]] = -1 - nxt[leaf]
-            live, node = live[~leaf], nxt[~leaf]
-            if not len(live):
+            go = np.flatnonzero(~leaf)
+            if not len(go):
                 break
+            live, node, u, v = live[go], nxt[go], u[go], v[go]
         return out
 
     def __call__(self, points: Float[np.ndarray, "k 3"] | None,
@@ -254,12 +262,13 @@ class PatchLocator:
         other = np.flatnonzero(~self.grid[tri] & ~self.bisected[tri] & (self.count[tri] > 1))
         if len(b) or len(other):
             need = np.concatenate([b, other])
-            pts = (points[need] if points is not None else self._point(tri[need], uv[need]))
             if len(b):
-                out[b] = self._descend(pts[:len(b)], tri[b])
-            miss = np.flatnonzero(out[need] < 0)
+                out[b] = self._descend(self._uv(points[b], tri[b]) if uv is None else uv[b],
+                                       tri[b])
+            miss = need[out[need] < 0]
             if len(miss):
-                out[need[miss]] = patch_of_hits(self.patches, pts[miss], tri[need[miss]])
+                pts = points[miss] if points is not None else self._point(tri[miss], uv[miss])
+                out[miss] = patch_of_hits(self.patches, pts, tri[miss])
         return out
 
     def _point(self, tri, uv):

@@ -97,8 +97,15 @@ def test_locator_finds_the_patch_holding_a_point():
     pts = v[:, None, 0] + u[..., :1] * (v[:, None, 1] - v[:, None, 0]) + u[..., 1:] * (
         v[:, None, 2] - v[:, None, 0])
     own = np.repeat(np.arange(p.n), 40)
-    got = loc(pts.reshape(-1, 3), np.asarray(p.source_triangle)[own])
+    src = np.asarray(p.source_triangle)[own]
+    got = loc(pts.reshape(-1, 3), src)
     assert np.array_equal(got, own)
+    # and from the barycentrics in the source triangle alone (what Embree returns)
+    t = tri[src]
+    e = np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]], axis=2)  # (k, 3, 2)
+    bary = np.linalg.solve(np.einsum("kij,kil->kjl", e, e),
+                           np.einsum("kij,ki->kj", e, pts.reshape(-1, 3) - t[:, 0])[..., None])[..., 0]
+    assert np.array_equal(loc(None, src, bary), own)
 
 
 def _furnished_triangles():
