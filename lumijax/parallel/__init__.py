@@ -22,6 +22,8 @@ from ._executor import (
     connect as connect,
     current_executor as current_executor,
     executor_scope as executor_scope,
+    local_threads as local_threads,
+    threaded_map as threaded_map,
     use_executor as use_executor,
 )
 from ._sharding import (

@@ -20,6 +20,7 @@ import abc
 import collections
 import contextlib
 import contextvars
+import os
 import re
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any, final
@@ -28,7 +29,7 @@ from ..errors import LumijaxError
 
 __all__ = ["ClusterError", "Executor", "LocalExecutor", "DaskExecutor", "connect",
            "current_executor", "use_executor", "executor_scope", "batches",
-           "CONNECT_TIMEOUT_S"]
+           "local_threads", "threaded_map", "CONNECT_TIMEOUT_S"]
 
 CONNECT_TIMEOUT_S = 5.0
 """Seconds a scheduler address is given to answer before the run is refused."""
@@ -125,6 +126,44 @@ def batches(n: int, parts: int) -> list[range]:
     parts = max(1, min(int(parts), n))
     edges = [round(k * n / parts) for k in range(parts + 1)]
     return [range(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+
+
+def local_threads() -> int:
+    """The CPUs this process may run on (its affinity mask, not the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def threaded_map(fn: Callable[[Any], Any], items: Iterable[Any],
+                 threads: int | None = None) -> Iterator[Any]:
+    """``fn(item)`` of each item in item order, up to ``threads`` (default
+    :func:`local_threads`) running at once in this process.
+
+    For work whose heavy calls release the GIL (Embree's ray queries, NumPy's loops over large
+    arrays): one batch's rays are traced while another's hits are sorted. At most ``threads``
+    results are held beyond the one being consumed, so memory stays that of ``threads``
+    batches. ``threads=1`` is the plain loop, no thread started."""
+    threads = local_threads() if threads is None else int(threads)
+    if threads <= 1:
+        yield from (fn(item) for item in items)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    pending: collections.deque = collections.deque()
+    it = iter(items)
+    with ThreadPoolExecutor(threads, thread_name_prefix="lumijax") as pool:
+        try:
+            for item in it:
+                pending.append(pool.submit(fn, item))
+                if len(pending) >= threads:
+                    yield pending.popleft().result()
+            while pending:
+                yield pending.popleft().result()
+        finally:  # an error or an abandoned generator: drop what has not started
+            for f in pending:
+                f.cancel()
 
 
 _ADDRESS = re.compile(r"^(tcp|tls|inproc|ucx|ws|wss)://[^\s/:]+(:\d+)?$|^[^\s/:]+:\d+$")

@@ -24,7 +24,7 @@ near it for clear glass: docs/materials.md) is not seen, and the rows still sum 
 
 The work is cut into batches of patches (:func:`sample_batch`: a batch in, three link arrays
 out, independent of every other batch): :func:`build_sampled` maps them over the current
-executor (one task a batch on a Dask cluster, in order here) and assembles the operator.
+executor (one task a batch on a Dask cluster, on threads here) and assembles the operator.
 """
 
 from __future__ import annotations
@@ -65,9 +65,11 @@ class SampledSettings:
     faster (stratified), the memory grows at most like N."""
     seed: int = 0
     """Seed of the per-patch rotations and shifts of the stratified pattern."""
-    batch: int = 8192
-    """Patches per batch (one Embree call of batch × rays rays). Part of the key: a batch's
-    random turns are drawn from (seed, first patch of the batch)."""
+    batch: int = 2048
+    """Patches per batch (one Embree query of batch × rays rays). Part of the key: a batch's
+    random turns are drawn from (seed, first patch of the batch). 2048 × 256 rays keeps a
+    batch's arrays in the last-level cache's reach: the 1.9·10⁵-patch courtyard built in
+    13.0 s against 15.2 s with 8192 (2 threads, benchmarks/RESULTS.md)."""
 
 
 class PatchLocator:
@@ -118,10 +120,16 @@ class PatchLocator:
         cand = np.flatnonzero(~self.grid[src] & (self.count[src] > 1))
         self.bisected = np.zeros(n_triangles, bool)
         self.root = np.full(n_triangles, -1, np.int64)
-        self.cut = np.zeros((0, 3))
-        self.child = np.zeros((0, 2), np.int64)
+        self.cut = np.zeros((3, 0), np.float32)  # per node (c0, c1, c2): _tree
+        self.child = np.zeros(0, np.int64)  # child[2 node + side]: one flat gather a level
+        self.leaf_patch, self.n_internal = np.zeros(0, np.int64), 0
+        self.tree_height = np.zeros(n_triangles, np.int64)
         if len(cand):
             self._tree(cand, src, index)
+        # how each triangle is cut, one gather a lookup: 0 no patch, 1 one patch, 2 the grid,
+        # 3 bisected, 4 neither (the nearest patch centroid)
+        self.kind = np.select([self.count == 0, self.count == 1, self.grid, self.bisected],
+                              [0, 1, 2, 3], 4).astype(np.int8)
 
     def _tree(self, cand, src, index) -> None:
         p = self.patches
@@ -163,17 +171,32 @@ class PatchLocator:
         # p = v0 + u e1 + v e2 is affine in (u, v), so the side is too: c0 + c1 u + c2 v; the
         # descent then reads Embree's barycentrics directly, never a 3-D point
         t0 = self.triangles[nt]
-        self.cut = np.stack([np.einsum("ij,ij->i", t0[:, 0] - m, w),
-                             np.einsum("ij,ij->i", t0[:, 1] - t0[:, 0], w),
-                             np.einsum("ij,ij->i", t0[:, 2] - t0[:, 0], w)], axis=1)
+        cut = np.stack([np.einsum("ij,ij->i", t0[:, 0] - m, w),
+                        np.einsum("ij,ij->i", t0[:, 1] - t0[:, 0], w),
+                        np.einsum("ij,ij->i", t0[:, 2] - t0[:, 0], w)], axis=1)
         child = np.empty((len(node_key), 2), np.int64)
         for side in (0, 1):
             k = nt << shift | (2 * nc + side)
             pi = np.minimum(np.searchsorted(node_key, k), len(node_key) - 1)
             pl = np.minimum(np.searchsorted(leaf_key, k), len(leaf_key) - 1)
+            # a leaf child: the node after the internal ones that stands for its leaf; −2: none
             child[:, side] = np.where(node_key[pi] == k, pi,
-                                      np.where(leaf_key[pl] == k, -1 - leaf_patch[pl], -1))
-        self.child = child
+                                      np.where(leaf_key[pl] == k, len(node_key) + pl, -2))
+        # Every leaf is also a node, one that keeps a point where it is (cut (1, 0, 0): the
+        # first side; both children itself), and one more stands for a missing child: the
+        # descent takes a step for every point at every level, without compacting the points
+        # still going (2x faster), and drops those of shallower trees only now and then.
+        n_int, n_leaf = len(node_key), len(leaf_key)
+        absorbing = np.arange(n_int, n_int + n_leaf + 1)
+        child = np.where(child == -2, n_int + n_leaf, child)
+        self.leaf_patch = np.concatenate([leaf_patch, [-1]]).astype(np.int64)
+        self.n_internal = n_int
+        # float32 as Embree's (u, v): the side test is no sharper than its input
+        self.cut = np.concatenate([cut, np.tile([1.0, 0.0, 0.0], (n_leaf + 1, 1))]).astype(
+            np.float32).T.copy()
+        self.child = np.concatenate([child, np.stack([absorbing, absorbing], 1)]).ravel()
+        self.tree_height = np.zeros(len(self.count), np.int64)  # steps root → deepest leaf
+        np.maximum.at(self.tree_height, lt, np.floor(np.log2(lc)).astype(np.int64))
         roots = nc == 1
         self.root[nt[roots]] = np.flatnonzero(roots)
         self.bisected = good & (self.root >= 0)
@@ -226,22 +249,22 @@ class PatchLocator:
 
     def _descend(self, uv, tri) -> np.ndarray:
         """The patch of a bisected triangle holding each point (barycentric ``uv`` in its
-        triangle): down the tree of cuts."""
-        out = np.full(len(tri), -1, np.int64)
-        node, live = self.root[tri], np.arange(len(tri))
-        u, v = np.array(uv[:, 0], np.float64), np.array(uv[:, 1], np.float64)
-        c0, c1, c2 = self.cut.T.copy()
-        child = self.child.ravel()  # child[2 node + side]: one flat gather, not a 2-D one
-        for _ in range(self._DEPTH + 1):
+        triangle): down the tree of cuts, a leaf keeping what reaches it."""
+        node = self.root[tri]
+        u, v = np.asarray(uv[:, 0], np.float32), np.asarray(uv[:, 1], np.float32)
+        height = self.tree_height[tri]
+        c0, c1, c2 = self.cut
+        done, live = node.copy(), np.arange(len(tri))
+        for level in range(int(height.max(initial=0))):
+            if level % 4 == 3:  # every fourth level, drop the points whose trees end above it
+                go = height > level
+                if not go.all():
+                    done[live] = node
+                    live, node, u, v, height = live[go], node[go], u[go], v[go], height[go]
             second = c0[node] + c1[node] * u + c2[node] * v < 0
-            nxt = child[2 * node + second]
-            leaf = nxt < 0
-            out[live[leaf]] = -1 - nxt[leaf]
-            go = np.flatnonzero(~leaf)
-            if not len(go):
-                break
-            live, node, u, v = live[go], nxt[go], u[go], v[go]
-        return out
+            node = self.child[2 * node + second]
+        done[live] = node
+        return self.leaf_patch[done - self.n_internal]
 
     def __call__(self, points: Float[np.ndarray, "k 3"] | None,
                  tri: Int[np.ndarray, " k"],
@@ -253,22 +276,19 @@ class PatchLocator:
         from ._gather import patch_of_hits
 
         out = np.full(len(tri), -1, np.int64)
-        one = self.count[tri] == 1
+        kind = self.kind[tri]
+        one = np.flatnonzero(kind == 1)
         out[one] = self.first[tri[one]]
-        g = self.grid[tri] & ~one
+        g = np.flatnonzero(kind == 2)
         out[g] = self._grid_lookup(None if points is None else points[g], tri[g],
                                    None if uv is None else uv[g])
-        b = np.flatnonzero(self.bisected[tri] & ~one)
-        other = np.flatnonzero(~self.grid[tri] & ~self.bisected[tri] & (self.count[tri] > 1))
-        if len(b) or len(other):
-            need = np.concatenate([b, other])
-            if len(b):
-                out[b] = self._descend(self._uv(points[b], tri[b]) if uv is None else uv[b],
-                                       tri[b])
-            miss = need[out[need] < 0]
-            if len(miss):
-                pts = points[miss] if points is not None else self._point(tri[miss], uv[miss])
-                out[miss] = patch_of_hits(self.patches, pts, tri[miss])
+        b = np.flatnonzero(kind == 3)
+        if len(b):
+            out[b] = self._descend(self._uv(points[b], tri[b]) if uv is None else uv[b], tri[b])
+        miss = np.flatnonzero((kind == 4) | ((kind == 3) & (out < 0)))
+        if len(miss):
+            pts = points[miss] if points is not None else self._point(tri[miss], uv[miss])
+            out[miss] = patch_of_hits(self.patches, pts, tri[miss])
         return out
 
     def _point(self, tri, uv):
@@ -277,18 +297,29 @@ class PatchLocator:
         return t[:, 0] + uv[:, :1] * (t[:, 1] - t[:, 0]) + uv[:, 1:] * (t[:, 2] - t[:, 0])
 
 
-def _origins(vertices, rays: int, shift) -> Float[np.ndarray, "p rays 3"]:
+def _origins(vertices, rays: int, shift, lift=None) -> Float[np.ndarray, "p rays 3"]:
     """``rays`` stratified points on each triangle: the R2 sequence shifted per patch, folded
-    into the triangle (uniform in area)."""
+    into the triangle (uniform in area), each moved by its patch's ``lift`` (m, a 3-vector).
+
+    One coordinate at a time, in place: a batched ``(p, rays, 2) @ (p, 2, 3)`` product loops
+    over p in small matrix calls and took 2.6× as long."""
     k = np.arange(rays) + 0.5
     u = k / _R2 + shift[:, :1]
     v = k / _R2**2 + shift[:, 1:]
     u -= np.floor(u)  # the fractional part: float % is several times slower
     v -= np.floor(v)
     fold = u + v > 1.0
-    uv = np.stack([np.where(fold, 1.0 - u, u), np.where(fold, 1.0 - v, v)], axis=-1)
-    edges = vertices[:, 1:] - vertices[:, :1]  # (p, 2, 3): a batched matmul, not broadcasts
-    return vertices[:, None, 0] + np.matmul(uv, edges)
+    np.subtract(1.0, u, out=u, where=fold)
+    np.subtract(1.0, v, out=v, where=fold)
+    base = vertices[:, 0] if lift is None else vertices[:, 0] + lift
+    e1, e2 = vertices[:, 1] - vertices[:, 0], vertices[:, 2] - vertices[:, 0]
+    out = np.empty((len(vertices), rays, 3))
+    for c in range(3):
+        x = out[:, :, c]
+        np.multiply(u, e1[:, c, None], out=x)
+        x += v * e2[:, c, None]
+        x += base[:, c, None]
+    return out
 
 
 def sample_batch(
@@ -317,9 +348,8 @@ def sample_batch(
     # a fixed shuffle pairs the spatial and the directional strata without correlation
     local = _cosine_directions(n_rays)[np.random.default_rng(settings.seed).permutation(n_rays)]
     dirs = np.matmul(local[None], frames.transpose(0, 2, 1)).reshape(-1, 3)  # frame @ local
-    lift = 10.0 * float(caster.epsilon)
-    o = _origins(patches.vertices[start:stop], n_rays, rng.uniform(size=(len(idx), 2)))
-    o = (o + lift * normal[:, None]).reshape(-1, 3)
+    o = _origins(patches.vertices[start:stop], n_rays, rng.uniform(size=(len(idx), 2)),
+                 lift=10.0 * float(caster.epsilon) * normal).reshape(-1, 3)
     t = time.perf_counter()
     glazed = getattr(caster, "glazing_key", None) is not None
     if glazed:  # clear panes pass the ray on to what lies behind, carrying τ(θ) of each
@@ -358,6 +388,7 @@ def build_sampled(
     dtype=np.float32,
     progress: Callable[[int, int], None] | None = None,
     batches: Callable | None = None,
+    threads: int | None = None,
 ) -> TransportOperator:
     """The ray-sampled transport operator of ``patches`` (module docstring).
 
@@ -381,8 +412,11 @@ def build_sampled(
         function ``fn(start, stop)``; default: the current executor
         (:func:`~lumijax.parallel.current_executor`): on a Dask cluster every batch is a task
         (the patches, locator and caster sent once per worker, the Embree scene built once
-        there), here the batches run in order. The links are the same either way, bit for bit:
-        a batch depends only on its own span and the seed.
+        there), here they run on ``threads`` threads (default: every CPU this process may
+        use; :func:`~lumijax.parallel.threaded_map`). The links are the same either way, bit
+        for bit: a batch depends only on its own span and the seed.
+    threads
+        Batches traced at once here (1: one after another).
     """
     from ..scene._raycast import RayCaster
 
@@ -398,7 +432,7 @@ def build_sampled(
     def one(a, b):
         return sample_batch(patches, caster, a, b, s, locator, front)
 
-    from ..parallel import current_executor
+    from ..parallel import current_executor, threaded_map
 
     ex = current_executor()
     if batches is not None:
@@ -411,10 +445,11 @@ def build_sampled(
             parts.append(part)
             if progress is not None:
                 progress(b, patches.n)
-    else:
+    else:  # here: Embree and NumPy release the GIL, so batches overlap on threads
         parts = []
-        for a, b in spans:
-            parts.append(one(a, b))
+        for (_, b), part in zip(spans, threaded_map(lambda span: one(*span), spans, threads),
+                                strict=True):
+            parts.append(part)
             if progress is not None:
                 progress(b, patches.n)
     n = int(sum(len(p[0]) for p in parts))

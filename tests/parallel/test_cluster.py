@@ -188,7 +188,7 @@ def test_the_sampled_transport_built_on_the_cluster_is_the_local_build(client):
     tri = np.concatenate([room.triangles, crate.triangles])
     patches = mesh_patches(tri, patch_size=0.5)
     settings = SampledSettings(rays_per_patch=64, batch=40)  # 1,288 patches: 33 batches
-    local = build_sampled(patches, tri, settings)
+    local = build_sampled(patches, tri, settings, threads=2)
     ex = connect(client)
     with use_executor(ex):
         remote = build_sampled(patches, tri, settings, caster=RayCaster(tri))
@@ -197,3 +197,7 @@ def test_the_sampled_transport_built_on_the_cluster_is_the_local_build(client):
     for name in ("weight", "recv", "src"):
         np.testing.assert_array_equal(np.asarray(getattr(a, name)), np.asarray(getattr(b, name)))
     assert remote.info["rays"] == local.info["rays"] == 64 * patches.n
+    one_thread = build_sampled(patches, tri, settings, threads=1).buckets[0]
+    for name in ("weight", "recv", "src"):  # the local build on two threads is the plain loop's
+        np.testing.assert_array_equal(np.asarray(getattr(a, name)),
+                                      np.asarray(getattr(one_thread, name)))

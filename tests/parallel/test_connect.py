@@ -1,9 +1,11 @@
 """A scheduler address that does not answer, or is no address, is a clear error in seconds
-(Python API and command line); the executors map in order; batches cover their range once."""
+(Python API and command line); the executors and the threaded map keep item order; batches
+cover their range once."""
 
 from __future__ import annotations
 
 import socket
+import threading
 import time
 
 import pytest
@@ -11,7 +13,14 @@ from helpers import box_room
 
 import lumijax
 from lumijax.cli import main
-from lumijax.parallel import CONNECT_TIMEOUT_S, ClusterError, LocalExecutor, batches, connect
+from lumijax.parallel import (
+    CONNECT_TIMEOUT_S,
+    ClusterError,
+    LocalExecutor,
+    batches,
+    connect,
+    threaded_map,
+)
 
 
 def _closed_port() -> int:
@@ -60,6 +69,39 @@ def test_the_local_executor_maps_lazily_in_order():
     assert seen == []  # nothing runs before its result is asked for
     assert next(out) == 30 and seen == [3]
     assert list(out) == [10, 20]
+
+
+def test_the_threaded_map_runs_items_at_once_yet_yields_them_in_order():
+    both = threading.Barrier(2, timeout=10)  # passed only if two items run at the same time
+    names = set()
+
+    def f(x):
+        if x < 2:
+            both.wait()
+        time.sleep(0.02 * (5 - x))  # later items finish first
+        names.add(threading.current_thread().name)
+        return x * x
+
+    assert list(threaded_map(f, range(5), threads=2)) == [0, 1, 4, 9, 16]
+    assert len(names) == 2 and all(n.startswith("lumijax") for n in names)
+    assert list(threaded_map(f, [3, 4], threads=1)) == [9, 16]  # the plain loop: no barrier
+
+
+def test_an_error_in_a_threaded_item_reaches_the_caller_and_stops_the_rest():
+    ran = []
+
+    def f(x):
+        ran.append(x)
+        if x == 1:
+            raise ValueError("item 1")
+        time.sleep(0.05)
+        return x
+
+    out = threaded_map(f, range(100), threads=2)
+    assert next(out) == 0
+    with pytest.raises(ValueError, match="item 1"):
+        next(out)
+    assert len(ran) < 10  # in flight at most two at a time; the rest never started
 
 
 @pytest.mark.parametrize("n,parts", [(10, 3), (3, 8), (1, 1), (0, 4), (1000, 7)])
