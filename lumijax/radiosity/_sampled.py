@@ -33,6 +33,7 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -122,8 +123,7 @@ class PatchLocator:
         self.root = np.full(n_triangles, -1, np.int64)
         self.cut = np.zeros((3, 0), np.float32)  # per node (c0, c1, c2): _tree
         self.child = np.zeros(0, np.int64)  # child[2 node + side]: one flat gather a level
-        self.leaf_patch, self.n_internal = np.zeros(0, np.int64), 0
-        self.tree_height = np.zeros(n_triangles, np.int64)
+        self.leaf_patch, self.n_internal, self.height = np.full(1, -1, np.int64), 0, 0
         if len(cand):
             self._tree(cand, src, index)
         # how each triangle is cut, one gather a lookup: 0 no patch, 1 one patch, 2 the grid,
@@ -133,7 +133,9 @@ class PatchLocator:
 
     def _tree(self, cand, src, index) -> None:
         p = self.patches
-        code = self._replay(p.centroid[cand], src[cand], target=p.vertices[cand])
+        code = np.concatenate(list(_halves(  # NumPy's loops release the GIL: two at once
+            lambda sl: self._replay(p.centroid[cand[sl]], src[cand[sl]],
+                                    target=p.vertices[cand[sl]]), len(cand))))
         t = src[cand]
         good = np.ones(len(self.count), bool)
         np.logical_and.at(good, t, code > 0)
@@ -155,7 +157,36 @@ class PatchLocator:
             return
         node_key = np.unique(np.concatenate(nodes))
         nt, nc = node_key >> shift, node_key & ((1 << shift) - 1)
-        # the cut of each node: replay its prefix from the root
+        cut = np.concatenate(list(_halves(lambda sl: self._node_cuts(nt[sl], nc[sl]),
+                                          len(nt))))
+        child = np.empty((len(node_key), 2), np.int64)
+        for side in (0, 1):
+            k = nt << shift | (2 * nc + side)
+            pi = np.minimum(np.searchsorted(node_key, k), len(node_key) - 1)
+            pl = np.minimum(np.searchsorted(leaf_key, k), len(leaf_key) - 1)
+            # a leaf child: the node after the internal ones that stands for its leaf; −2: none
+            child[:, side] = np.where(node_key[pi] == k, pi,
+                                      np.where(leaf_key[pl] == k, len(node_key) + pl, -2))
+        # Every leaf is also a node, one that keeps a point where it is (cut (1, 0, 0): the
+        # first side; both children itself), and one more stands for a missing child: the
+        # descent takes the same steps for every point (_patch_of), none compacted.
+        n_int, n_leaf = len(node_key), len(leaf_key)
+        absorbing = np.arange(n_int, n_int + n_leaf + 1)
+        child = np.where(child == -2, n_int + n_leaf, child)
+        self.leaf_patch = np.concatenate([leaf_patch, [-1]]).astype(np.int64)
+        self.n_internal = n_int
+        # float32 as Embree's (u, v): the side test is no sharper than its input
+        self.cut = np.concatenate([cut, np.tile([1.0, 0.0, 0.0], (n_leaf + 1, 1))]).astype(
+            np.float32).T.copy()
+        self.child = np.concatenate([child, np.stack([absorbing, absorbing], 1)]).ravel()
+        self.height = int(np.floor(np.log2(lc)).max())  # steps from a root to its deepest leaf
+        roots = nc == 1
+        self.root[nt[roots]] = np.flatnonzero(roots)
+        self.bisected = good & (self.root >= 0)
+
+    def _node_cuts(self, nt, nc):
+        """Each node's cut (c0, c1, c2) in the barycentrics of its triangle ``nt``: its
+        prefix ``nc`` replayed from the root."""
         depth = np.floor(np.log2(nc)).astype(np.int64)
         cur = self.triangles[nt].copy()
         for level in range(int(depth.max()) + 1):
@@ -171,35 +202,9 @@ class PatchLocator:
         # p = v0 + u e1 + v e2 is affine in (u, v), so the side is too: c0 + c1 u + c2 v; the
         # descent then reads Embree's barycentrics directly, never a 3-D point
         t0 = self.triangles[nt]
-        cut = np.stack([np.einsum("ij,ij->i", t0[:, 0] - m, w),
-                        np.einsum("ij,ij->i", t0[:, 1] - t0[:, 0], w),
-                        np.einsum("ij,ij->i", t0[:, 2] - t0[:, 0], w)], axis=1)
-        child = np.empty((len(node_key), 2), np.int64)
-        for side in (0, 1):
-            k = nt << shift | (2 * nc + side)
-            pi = np.minimum(np.searchsorted(node_key, k), len(node_key) - 1)
-            pl = np.minimum(np.searchsorted(leaf_key, k), len(leaf_key) - 1)
-            # a leaf child: the node after the internal ones that stands for its leaf; −2: none
-            child[:, side] = np.where(node_key[pi] == k, pi,
-                                      np.where(leaf_key[pl] == k, len(node_key) + pl, -2))
-        # Every leaf is also a node, one that keeps a point where it is (cut (1, 0, 0): the
-        # first side; both children itself), and one more stands for a missing child: the
-        # descent takes a step for every point at every level, without compacting the points
-        # still going (2x faster), and drops those of shallower trees only now and then.
-        n_int, n_leaf = len(node_key), len(leaf_key)
-        absorbing = np.arange(n_int, n_int + n_leaf + 1)
-        child = np.where(child == -2, n_int + n_leaf, child)
-        self.leaf_patch = np.concatenate([leaf_patch, [-1]]).astype(np.int64)
-        self.n_internal = n_int
-        # float32 as Embree's (u, v): the side test is no sharper than its input
-        self.cut = np.concatenate([cut, np.tile([1.0, 0.0, 0.0], (n_leaf + 1, 1))]).astype(
-            np.float32).T.copy()
-        self.child = np.concatenate([child, np.stack([absorbing, absorbing], 1)]).ravel()
-        self.tree_height = np.zeros(len(self.count), np.int64)  # steps root → deepest leaf
-        np.maximum.at(self.tree_height, lt, np.floor(np.log2(lc)).astype(np.int64))
-        roots = nc == 1
-        self.root[nt[roots]] = np.flatnonzero(roots)
-        self.bisected = good & (self.root >= 0)
+        return np.stack([np.einsum("ij,ij->i", t0[:, 0] - m, w),
+                         np.einsum("ij,ij->i", t0[:, 1] - t0[:, 0], w),
+                         np.einsum("ij,ij->i", t0[:, 2] - t0[:, 0], w)], axis=1)
 
     @staticmethod
     def _cut(cur):
@@ -247,24 +252,34 @@ class PatchLocator:
             code = 2 * code + second
         return out
 
-    def _descend(self, uv, tri) -> np.ndarray:
-        """The patch of a bisected triangle holding each point (barycentric ``uv`` in its
-        triangle): down the tree of cuts, a leaf keeping what reaches it."""
-        node = self.root[tri]
-        u, v = np.asarray(uv[:, 0], np.float32), np.asarray(uv[:, 1], np.float32)
-        height = self.tree_height[tri]
-        c0, c1, c2 = self.cut
-        done, live = node.copy(), np.arange(len(tri))
-        for level in range(int(height.max(initial=0))):
-            if level % 4 == 3:  # every fourth level, drop the points whose trees end above it
-                go = height > level
-                if not go.all():
-                    done[live] = node
-                    live, node, u, v, height = live[go], node[go], u[go], v[go], height[go]
-            second = c0[node] + c1[node] * u + c2[node] * v < 0
-            node = self.child[2 * node + second]
-        done[live] = node
-        return self.leaf_patch[done - self.n_internal]
+    def tables(self) -> dict:
+        """The lookup's arrays on the default device (made once; :func:`_patch_of`)."""
+        t = self.__dict__.get("_tables")
+        if t is None:
+            last = max(len(self.leaf_patch) - 1, 0)  # the "none" node: any point stays, finds −1
+            t = self._tables = dict(
+                kind=jnp.asarray(self.kind, jnp.int32), first=jnp.asarray(self.first, jnp.int32),
+                n=jnp.asarray(self.n, jnp.int32),
+                root=jnp.asarray(np.where(self.root >= 0, self.root, self.n_internal + last),
+                                 jnp.int32),
+                node=jnp.asarray(self._packed()),
+                leaf=jnp.asarray(self.leaf_patch, jnp.int32),
+                n_internal=jnp.asarray(self.n_internal, jnp.int32))
+        return t
+
+    def _packed(self) -> np.ndarray:
+        """One row of 8 float32 a node, half a cache line: its cut (c0, c1, c2) and, as the
+        bits of int32, its two children; a descent step then costs one memory access, not
+        five (at 1.6·10⁶ patches the tree no longer fits in the cache)."""
+        cut = self.cut if self.cut.size else np.array([[1.0], [0.0], [0.0]], np.float32)
+        child = (self.child if self.child.size else np.zeros(2)).reshape(-1, 2)
+        rows = np.zeros((cut.shape[1], 8), np.float32)
+        rows[:, :3] = cut.T
+        rows[:, 3:5] = child.astype(np.int32).view(np.float32)
+        return rows
+
+    def __getstate__(self):  # device arrays stay where they were made (a worker makes its own)
+        return {k: v for k, v in self.__dict__.items() if k != "_tables"}
 
     def __call__(self, points: Float[np.ndarray, "k 3"] | None,
                  tri: Int[np.ndarray, " k"],
@@ -273,19 +288,40 @@ class PatchLocator:
 
         The points are given as positions (m), or as barycentric ``uv`` in their triangle (a
         ray caster's :meth:`~lumijax.scene.RayCaster.first_hit_uv`), or both."""
+        tri = np.asarray(tri, np.int64)
+        k = len(tri)
+        if uv is None:
+            uv = self._uv(points, tri) if k else np.zeros((0, 2))
+        size = max(1024, 1 << max(k - 1, 0).bit_length())  # a few shapes, a few compilations
+        t = np.full(size, -1, np.int32)
+        t[:k] = tri
+        w = np.zeros((size, 2), np.float32)
+        w[:k] = uv
+        out = np.asarray(_lookup(t, w, self.tables(), self.height))[:k].astype(np.int64)
+        return self._resolve(out, points, tri, uv)
+
+    def front_hits(self, tri: Int[np.ndarray, " k"], uv: Float[np.ndarray, "k 2"],
+                   dirs: Float[np.ndarray, "k 3"], front: Float[np.ndarray, "tri 3"]
+                   ) -> Int[np.ndarray, " k"]:
+        """The patch each ray of a :meth:`~lumijax.scene.RayCaster.first_hit_local` query hit
+        (triangle ``tri``, −1 none; its ``uv``; the rays' ``dirs``), −1 where it met no patch
+        or the back of one (``front``: each triangle's front normal)."""
+        k = len(tri)
+        size = max(1024, 1 << max(k - 1, 0).bit_length())
+        pad = size - k
+        t = np.pad(np.asarray(tri, np.int32), (0, pad), constant_values=-1)
+        w = np.pad(np.asarray(uv, np.float32), ((0, pad), (0, 0)))
+        d = np.pad(np.asarray(dirs, np.float32), ((0, pad), (0, 0)))
+        out = np.asarray(_front_hits(t, w, d, np.asarray(front, np.float32), self.tables(),
+                                     self.height))[:k]
+        return self._resolve(out.astype(np.int64), None, np.asarray(tri, np.int64), uv)
+
+    def _resolve(self, out, points, tri, uv):
+        """The hits :func:`_patch_of` leaves at −2 (no grid or tree fits their triangle) by
+        the nearest patch centroid of their triangle."""
         from ._gather import patch_of_hits
 
-        out = np.full(len(tri), -1, np.int64)
-        kind = self.kind[tri]
-        one = np.flatnonzero(kind == 1)
-        out[one] = self.first[tri[one]]
-        g = np.flatnonzero(kind == 2)
-        out[g] = self._grid_lookup(None if points is None else points[g], tri[g],
-                                   None if uv is None else uv[g])
-        b = np.flatnonzero(kind == 3)
-        if len(b):
-            out[b] = self._descend(self._uv(points[b], tri[b]) if uv is None else uv[b], tri[b])
-        miss = np.flatnonzero((kind == 4) | ((kind == 3) & (out < 0)))
+        miss = np.flatnonzero(out == -2)
         if len(miss):
             pts = points[miss] if points is not None else self._point(tri[miss], uv[miss])
             out[miss] = patch_of_hits(self.patches, pts, tri[miss])
@@ -297,29 +333,91 @@ class PatchLocator:
         return t[:, 0] + uv[:, :1] * (t[:, 1] - t[:, 0]) + uv[:, 1:] * (t[:, 2] - t[:, 0])
 
 
-def _origins(vertices, rays: int, shift, lift=None) -> Float[np.ndarray, "p rays 3"]:
-    """``rays`` stratified points on each triangle: the R2 sequence shifted per patch, folded
-    into the triangle (uniform in area), each moved by its patch's ``lift`` (m, a 3-vector).
+def _halves(fn, n: int):
+    """``fn(slice)`` of the two halves of ``range(n)``, on two threads (one if n is small)."""
+    from ..parallel import threaded_map
 
-    One coordinate at a time, in place: a batched ``(p, rays, 2) @ (p, 2, 3)`` product loops
-    over p in small matrix calls and took 2.6× as long."""
-    k = np.arange(rays) + 0.5
-    u = k / _R2 + shift[:, :1]
-    v = k / _R2**2 + shift[:, 1:]
-    u -= np.floor(u)  # the fractional part: float % is several times slower
-    v -= np.floor(v)
+    cut = n // 2
+    spans = [slice(0, cut), slice(cut, n)] if n >= 4096 else [slice(0, n)]
+    return threaded_map(fn, spans, threads=min(2, len(spans)))
+
+
+def _patch_of(tri, uv, tables, height: int):
+    """The patch holding each hit (triangle ``tri``, −1 none; barycentric ``uv``, float32):
+    −1 where none, −2 where only the nearest centroid can tell (:meth:`PatchLocator._resolve`).
+
+    Every hit takes every branch (one patch, the grid of n², ``height`` steps down the
+    bisection tree), fused in one XLA loop: 3× the NumPy version, whose compactions and
+    scattered writes cost more than the arithmetic."""
+    t = jnp.maximum(tri, 0)
+    u, v = uv[:, 0], uv[:, 1]
+    kind, first, n = tables["kind"][t], tables["first"][t], tables["n"][t]
+    nf = n.astype(jnp.float32)
+    un, vn = u * nf, v * nf
+    a = jnp.clip(jnp.floor(un), 0, nf - 1)
+    b = jnp.clip(jnp.floor(vn), 0, nf - 1 - a)
+    down = (un - a + vn - b > 1.0) & (a + b <= nf - 2)
+    a, b = a.astype(jnp.int32), b.astype(jnp.int32)
+    grid = first + 2 * a * n - a * a + 2 * b + down.astype(jnp.int32)
+    table = tables["node"]
+
+    def step(_, node):
+        row = table[node]
+        second = row[:, 0] + row[:, 1] * u + row[:, 2] * v < 0
+        child = jax.lax.bitcast_convert_type(row[:, 3:5], jnp.int32)
+        return jnp.where(second, child[:, 1], child[:, 0])
+
+    node = jax.lax.fori_loop(0, height, step, tables["root"][t])
+    leaf = tables["leaf"][node - tables["n_internal"]]
+    found = jnp.select([kind == 1, kind == 2, kind == 3], [first, grid, jnp.where(
+        leaf >= 0, leaf, -2)], jnp.where(kind == 4, -2, -1))
+    return jnp.where(tri >= 0, found, -1)
+
+
+@partial(jax.jit, static_argnums=3)
+def _lookup(tri, uv, tables, height: int):
+    return _patch_of(tri, uv, tables, height)
+
+
+@partial(jax.jit, static_argnums=5)
+def _front_hits(tri, uv, dirs, front, tables, height: int):
+    """:func:`_patch_of` of the hits on a front face; −1 for a miss or a back face (a ray
+    meeting a back face is blocked: surfaces are one-sided)."""
+    facing = jnp.einsum("ij,ij->i", dirs, front[jnp.maximum(tri, 0)]) < 0
+    return jnp.where(facing, _patch_of(tri, uv, tables, height), -1)
+
+
+def _rays(vertices, frames, local, shift, lift: float, centre, nudge: float):
+    """The rays of a batch in a ray caster's own terms (float32, :meth:`~lumijax.scene.
+    RayCaster.first_hit_local`): ``(starts, directions)``, each ``(p · rays, 3)``.
+
+    The directions are ``frame @ local`` (unit, cosine-weighted about each patch's normal, the
+    frame's z column); the starts are ``rays`` stratified points on each patch — the R2
+    sequence shifted per patch, folded into the triangle (uniform in area) — lifted ``lift``
+    (m) along the normal, re-centred on ``centre`` and nudged ``nudge`` (m) along the ray.
+    The per-patch terms are re-centred in float64 here, the per-ray ones made in one fused
+    XLA loop in float32 (the precision Embree takes them in): 3× NumPy's passes."""
+    v0 = np.asarray(vertices[:, 0], np.float64)
+    base = (v0 + lift * frames[:, :, 2] - centre).astype(np.float32)
+    edges = (np.asarray(vertices[:, 1:], np.float64) - v0[:, None]).astype(np.float32)
+    k = np.arange(len(local)) + 0.5
+    seq = np.stack([k / _R2, k / _R2**2], axis=1) % 1.0  # R2 in float64: k/R2 grows with k
+    starts, dirs = _ray_kernel(base, edges, frames.astype(np.float32),
+                               np.asarray(local, np.float32), seq.astype(np.float32),
+                               shift.astype(np.float32), np.float32(nudge))
+    return np.array(starts), np.array(dirs)  # writable host copies, as Embree's binding wants
+
+
+@jax.jit
+def _ray_kernel(base, edges, frames, local, seq, shift, nudge):
+    u, v = seq[:, 0] + shift[:, :1], seq[:, 1] + shift[:, 1:]
+    u, v = jnp.where(u >= 1.0, u - 1.0, u), jnp.where(v >= 1.0, v - 1.0, v)
     fold = u + v > 1.0
-    np.subtract(1.0, u, out=u, where=fold)
-    np.subtract(1.0, v, out=v, where=fold)
-    base = vertices[:, 0] if lift is None else vertices[:, 0] + lift
-    e1, e2 = vertices[:, 1] - vertices[:, 0], vertices[:, 2] - vertices[:, 0]
-    out = np.empty((len(vertices), rays, 3))
-    for c in range(3):
-        x = out[:, :, c]
-        np.multiply(u, e1[:, c, None], out=x)
-        x += v * e2[:, c, None]
-        x += base[:, c, None]
-    return out
+    u, v = jnp.where(fold, 1.0 - u, u), jnp.where(fold, 1.0 - v, v)
+    dirs = jnp.einsum("pck,rk->prc", frames, local)
+    starts = (base[:, None] + u[..., None] * edges[:, None, 0] + v[..., None] * edges[:, None, 1]
+              + nudge * dirs)
+    return starts.reshape(-1, 3), dirs.reshape(-1, 3)
 
 
 def sample_batch(
@@ -341,37 +439,36 @@ def sample_batch(
     docstring). Depends only on its arguments, so batches can run anywhere in any order.
     """
     n_rays = settings.rays_per_patch
-    idx = np.arange(start, stop)
     rng = np.random.default_rng((settings.seed, start))
-    normal = np.asarray(patches.normal[start:stop], np.float64)
-    frames = _frames(normal, rng)
+    frames = _frames(np.asarray(patches.normal[start:stop], np.float64), rng)
     # a fixed shuffle pairs the spatial and the directional strata without correlation
     local = _cosine_directions(n_rays)[np.random.default_rng(settings.seed).permutation(n_rays)]
-    dirs = np.matmul(local[None], frames.transpose(0, 2, 1)).reshape(-1, 3)  # frame @ local
-    o = _origins(patches.vertices[start:stop], n_rays, rng.uniform(size=(len(idx), 2)),
-                 lift=10.0 * float(caster.epsilon) * normal).reshape(-1, 3)
-    t = time.perf_counter()
+    centre, nudge = np.asarray(caster.origin, np.float64), float(caster.epsilon)
+    o, dirs = _rays(patches.vertices[start:stop], frames, local,
+                    rng.uniform(size=(stop - start, 2)), 10.0 * nudge, centre, nudge)
     glazed = getattr(caster, "glazing_key", None) is not None
     if glazed:  # clear panes pass the ray on to what lies behind, carrying τ(θ) of each
+        o, dirs = o + centre, dirs.astype(np.float64)  # in the caster's public terms
+        t = time.perf_counter()
         tri, dist, carried = caster.first_hit_through(o, dirs)
-        uv = None
     else:
-        tri, _, uv = caster.first_hit_uv(o, dirs)
+        t = time.perf_counter()
+        tri, _, uv = caster.first_hit_local(o, dirs)
     ray_s = time.perf_counter() - t
-    hit = np.flatnonzero(tri >= 0)
-    th = tri[hit]
-    hit = hit[np.einsum("ij,ij->i", dirs[hit], front[th]) < 0]
-    th = tri[hit]
-    recv = hit // n_rays + start
     if glazed:  # the hit point from the distance (the passes through panes lose Embree's uv)
-        j = locator(o[hit] + dist[hit, None] * dirs[hit], th)
+        hit = np.flatnonzero(tri >= 0)
+        hit = hit[np.einsum("ij,ij->i", dirs[hit], front[tri[hit]]) < 0]
+        j = locator(o[hit] + dist[hit, None] * dirs[hit], tri[hit])
+        keep = j >= 0
+        hit, j = hit[keep], j[keep]
     else:
-        j = locator(None, th, uv[hit])
-    keep = j >= 0
-    key = recv[keep] * patches.n + j[keep]
+        j = locator.front_hits(tri, uv, dirs, front)
+        hit = np.flatnonzero(j >= 0)
+        j = j[hit]
+    key = (hit // n_rays + start) * patches.n + j
     if glazed:
         uniq, inverse = np.unique(key, return_inverse=True)
-        counts = np.bincount(inverse.ravel(), weights=carried[hit][keep], minlength=len(uniq))
+        counts = np.bincount(inverse.ravel(), weights=carried[hit], minlength=len(uniq))
     else:
         uniq, counts = np.unique(key, return_counts=True)
     r = (uniq // patches.n).astype(np.int32)
@@ -424,7 +521,7 @@ def build_sampled(
     triangles = np.asarray(triangles, np.float64)
     caster = RayCaster(triangles) if caster is None else caster
     t0 = time.perf_counter()
-    front = np.zeros((max(caster.n_triangles, 1), 3))
+    front = np.zeros((max(caster.n_triangles, 1), 3), np.float32)  # as the rays' directions
     front[np.asarray(patches.source_triangle)] = patches.normal
     locator = PatchLocator(patches, triangles)
     spans = [(a, min(a + s.batch, patches.n)) for a in range(0, patches.n, s.batch)]
