@@ -24,6 +24,7 @@ from jaxtyping import Float
 
 from ..direct import DirectLighting, direct_illuminance
 from ..errors import LumijaxWarning
+from ..parallel import current_executor, threaded_map
 from ..radiosity import (
     GatherOperator,
     PartitionSettings,
@@ -525,16 +526,30 @@ def _warn(shot: Shot, stats: dict, gather: GatherOperator, n_points: int) -> Non
         )
 
 
+def _in_chunks(n: int, fn: Callable[[slice], object], report: Report) -> list:
+    """``fn(span)`` of each :data:`POINT_CHUNK` of ``range(n)``, in order, reporting points done.
+
+    The chunks run on threads (Embree's queries and NumPy's loops release the GIL; each chunk's
+    result is what it would be alone, so the parts are bit for bit the sequential ones), unless
+    the stages run on a cluster: there the calls inside batch their own work, and a thread
+    would not see the cluster (the executor is a context variable)."""
+    spans = [slice(s, min(s + POINT_CHUNK, n)) for s in range(0, n, POINT_CHUNK)]
+    threads = 1 if current_executor().distributed else None
+    parts = []
+    report(0, n)
+    for span, part in zip(spans, threaded_map(fn, spans, threads), strict=True):
+        parts.append(part)
+        report(span.stop, n)
+    return parts
+
+
 def _direct_in_chunks(scene: Scene, points, normals, report: Report) -> DirectLighting:
     n = len(points)
     if n <= POINT_CHUNK:
         return direct_illuminance(scene, points, normals, progress=report)
-    parts = []
-    report(0, n)
-    for s in range(0, n, POINT_CHUNK):
-        parts.append(direct_illuminance(scene, points[s:s + POINT_CHUNK],
-                                        normals[s:s + POINT_CHUNK]))
-        report(min(s + POINT_CHUNK, n), n)
+    if len(scene.triangles):
+        scene.raycaster  # built once here, not by two threads at once  # noqa: B018
+    parts = _in_chunks(n, lambda sl: direct_illuminance(scene, points[sl], normals[sl]), report)
     timing: dict[str, float] = {}
     for d in parts:
         for key, v in d.timing_s.items():
@@ -550,13 +565,13 @@ def _gather_in_chunks(points, normals, patches: Patches, caster, rays: int,
     n = len(points)
     if n <= POINT_CHUNK:
         return build_gather(points, normals, patches, caster, rays=rays)
-    parts = []
-    report(0, n)
-    for i, s in enumerate(range(0, n, POINT_CHUNK)):
-        g = build_gather(points[s:s + POINT_CHUNK], normals[s:s + POINT_CHUNK], patches, caster,
-                         rays=rays, seed=i)
-        parts.append(dataclasses.replace(g, point=g.point + np.int32(s)))
-        report(min(s + POINT_CHUNK, n), n)
+
+    def chunk(sl):  # a seed per chunk: the same statistics, whatever the chunk count
+        g = build_gather(points[sl], normals[sl], patches, caster, rays=rays,
+                         seed=sl.start // POINT_CHUNK)
+        return dataclasses.replace(g, point=g.point + np.int32(sl.start))
+
+    parts = _in_chunks(n, chunk, report)
     return dataclasses.replace(
         parts[0], n_points=n, point=np.concatenate([g.point for g in parts]),
         patch=np.concatenate([g.patch for g in parts]),

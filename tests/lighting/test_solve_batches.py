@@ -51,6 +51,26 @@ def test_patch_stage_reports_patches(write_study, monkeypatch):
     assert n > 80 and stage == [(0, n)] + [(min(k, n), n) for k in range(40, n + 40, 40)]
 
 
+def test_chunks_on_threads_are_the_chunks_one_after_another(write_study, monkeypatch):
+    """The patch stage's chunks of direct light and the grid's gather chunks run on threads;
+    each is computed as it would be alone, so the study's numbers are the same bit for bit."""
+    from lumijax.lighting import _stages
+    from lumijax.parallel import _executor
+
+    monkeypatch.setattr(_stages, "POINT_CHUNK", 40)
+    study = write_study(box_room('precision = "float64"\ntarget_patches = 60\ncache = false',
+                                 grid="nu = 12\nnv = 9"))
+    runs = []
+    for threads in (1, 2):
+        monkeypatch.setattr(_executor, "local_threads", lambda n=threads: n)
+        runs.append(_compute(study)[0])
+    one, two = runs
+    assert one.coarse.patches.n > 80 and one.points.shape[0] > 40  # several chunks each
+    np.testing.assert_array_equal(two.coarse.radiosity, one.coarse.radiosity)
+    np.testing.assert_array_equal(two.point_indirect, one.point_indirect)
+    np.testing.assert_array_equal(two.point_direct, one.point_direct)
+
+
 def test_direct_light_reports_luminaires_not_photometries(write_study):
     # three luminaires of one photometry: the old unit (photometries) gave one step of one
     path = write_study(box_room('precision = "float64"\ntarget_patches = 60\ncache = false',
