@@ -13,6 +13,7 @@ one to measure each (``benchmarks/courtyard.py``).
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -526,21 +527,35 @@ def _warn(shot: Shot, stats: dict, gather: GatherOperator, n_points: int) -> Non
         )
 
 
-def _in_chunks(n: int, fn: Callable[[slice], object], report: Report) -> list:
-    """``fn(span)`` of each :data:`POINT_CHUNK` of ``range(n)``, in order, reporting points done.
+def _in_chunks(n: int, fn: Callable[[slice, Callable[[float], None]], object],
+               report: Report) -> list:
+    """``fn(span, tell)`` of each :data:`POINT_CHUNK` of ``range(n)``, in order, reporting
+    points done.
 
     The chunks run on threads (Embree's queries and NumPy's loops release the GIL; each chunk's
     result is what it would be alone, so the parts are bit for bit the sequential ones), unless
     the stages run on a cluster: there the calls inside batch their own work, and a thread
-    would not see the cluster (the executor is a context variable)."""
+    would not see the cluster (the executor is a context variable). ``tell(fraction)`` is how
+    far a chunk has come; the report counts every chunk's points by its fraction, so chunks in
+    flight together move the bar as they go, not in one jump when the first of them ends."""
     spans = [slice(s, min(s + POINT_CHUNK, n)) for s in range(0, n, POINT_CHUNK)]
     threads = 1 if current_executor().distributed else None
-    parts = []
+    share = np.zeros(len(spans))
+    size = np.array([sp.stop - sp.start for sp in spans], np.float64)
+    lock = threading.Lock()
+
+    def tell(k: int, fraction: float) -> None:
+        with lock:  # the threads report here; the sum only grows
+            share[k] = max(share[k], min(float(fraction), 1.0))
+            report(int(round(float(share @ size))), n)
+
+    def run(k: int):
+        part = fn(spans[k], lambda fraction: tell(k, fraction))
+        tell(k, 1.0)
+        return part
+
     report(0, n)
-    for span, part in zip(spans, threaded_map(fn, spans, threads), strict=True):
-        parts.append(part)
-        report(span.stop, n)
-    return parts
+    return list(threaded_map(run, range(len(spans)), threads))
 
 
 def _direct_in_chunks(scene: Scene, points, normals, report: Report) -> DirectLighting:
@@ -549,7 +564,8 @@ def _direct_in_chunks(scene: Scene, points, normals, report: Report) -> DirectLi
         return direct_illuminance(scene, points, normals, progress=report)
     if len(scene.triangles):
         scene.raycaster  # built once here, not by two threads at once  # noqa: B018
-    parts = _in_chunks(n, lambda sl: direct_illuminance(scene, points[sl], normals[sl]), report)
+    parts = _in_chunks(n, lambda sl, tell: direct_illuminance(
+        scene, points[sl], normals[sl], progress=lambda done, total: tell(done / total)), report)
     timing: dict[str, float] = {}
     for d in parts:
         for key, v in d.timing_s.items():
@@ -566,7 +582,7 @@ def _gather_in_chunks(points, normals, patches: Patches, caster, rays: int,
     if n <= POINT_CHUNK:
         return build_gather(points, normals, patches, caster, rays=rays)
 
-    def chunk(sl):  # a seed per chunk: the same statistics, whatever the chunk count
+    def chunk(sl, tell):  # a seed per chunk: the same statistics, whatever the chunk count
         g = build_gather(points[sl], normals[sl], patches, caster, rays=rays,
                          seed=sl.start // POINT_CHUNK)
         return dataclasses.replace(g, point=g.point + np.int32(sl.start))

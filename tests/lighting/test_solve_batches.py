@@ -45,10 +45,17 @@ def test_patch_stage_reports_patches(write_study, monkeypatch):
     from lumijax.lighting import _stages
 
     monkeypatch.setattr(_stages, "POINT_CHUNK", 40)  # a large study's chunks, on a small one
-    lighting, seen = _compute(write_study(STUDY))
+    lighting, seen = _compute(write_study(box_room(  # three luminaires: a chunk's steps
+        'precision = "float64"\ntarget_patches = 60\ncache = false', networks=("a", "b", "c"),
+        grid="nu = 4\nnv = 3")))
     n = lighting.coarse.patches.n
     stage = [(d, t) for s, d, t in seen if s == "direct light on patches"]
-    assert n > 80 and stage == [(0, n)] + [(min(k, n), n) for k in range(40, n + 40, 40)]
+    # the chunks' points counted by how far each has come (luminaires lit), whichever thread
+    # reports: from 0 to every patch, never back, and past each chunk's share on the way
+    done = [d for d, t in stage]
+    assert n > 80 and {t for _, t in stage} == {n}
+    assert done[0] == 0 and done[-1] == n and done == sorted(done)
+    assert len(done) > -(-n // 40) + 1 and set(done) & set(range(1, 40))
 
 
 def test_chunks_on_threads_are_the_chunks_one_after_another(write_study, monkeypatch):
