@@ -234,7 +234,7 @@ class RayCaster:
         directions = np.ascontiguousarray(directions, np.float32)
         n = len(directions)
         if self._scene is None or n == 0:
-            return np.full(n, -1, np.int32), np.full(n, np.inf, np.float32), np.zeros((n, 2),
+            return np.full(n, -1, np.int32), np.full(n, 1e37, np.float32), np.zeros((n, 2),
                                                                                     np.float32)
         parts = [self._scene.run(starts[s:s + _CHUNK], directions[s:s + _CHUNK], output=1)
                  for s in range(0, n, _CHUNK)]
