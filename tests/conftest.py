@@ -26,6 +26,11 @@ jax.config.update("jax_enable_x64", True)
 if "LUMIJAX_JAX_CACHE" not in os.environ:
     os.environ["LUMIJAX_JAX_CACHE"] = tempfile.mkdtemp(prefix="lumijax-test-jax-cache-")
     atexit.register(shutil.rmtree, os.environ["LUMIJAX_JAX_CACHE"], ignore_errors=True)
+# both xdist workers share one persistent compilation cache, so a program one compiled the other
+# loads (the command line's cache, lumijax/_jit_cache.py, in the suite's temporary folder)
+from lumijax._jit_cache import enable_compilation_cache  # noqa: E402
+
+enable_compilation_cache()
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
