@@ -385,7 +385,7 @@ def design_to_standard(study, results, ocfg, setup, goals, *, cache_dir=None, t0
         infeasibility = explain_infeasible(problem, params.x0, lo, hi, smooth=eps,
                                            tolerance=tol, labels=list(params.labels),
                                            method=ocfg.method, max_steps=ocfg.max_steps,
-                                           worst=worst)
+                                           worst=worst, phase1=x_best)
     def lit(x):
         """The design at ``x`` lit exactly, the solver's model there and the exact criteria."""
         design = params.unflatten(np.asarray(x, np.float64))

@@ -219,6 +219,50 @@ def test_an_infeasible_problem_names_a_minimal_conflicting_set():
     assert all(c.needed for c in inf.conflict)
 
 
+def test_a_conflict_among_many_satisfied_constraints_takes_few_checks(monkeypatch):
+    """The conflict {A's Eavg ≥ 150, B's Emax ≤ 60} among ten floors met at any design with
+    the networks on: the sensitivity filter keeps only what the least-shortfall point violates,
+    so the set is found with a handful of feasibility solves (the deletion filter alone: one a
+    constraint), and it is the hand-built LP's irreducible infeasible subset."""
+    from lumijax.optimise import _infeasible
+
+    rng = np.random.default_rng(7)
+    k, n = 3, 40
+    a = rng.uniform(50, 200, (k, 12 * n))
+    cons = (_c(GridAverage, 150.0, 0, n), _c(GridMaximum, 60.0, n, 2 * n, sense=-1),
+            *(_c(GridAverage, 5.0, g * n, (g + 1) * n) for g in range(2, 12)))
+    prob = DesignProblem(DimmerLight(jnp.asarray(a), None), PowerModel(jnp.asarray(POWER)),
+                         cons, objective_scale=float(POWER.sum()))
+    lo, hi = np.zeros(k), np.ones(k)
+    calls = []
+    real = _infeasible.find_feasible
+
+    def counted(*args, **kw):
+        calls.append(list(args[4]))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(_infeasible, "find_feasible", counted)
+    inf = explain_infeasible(prob, np.ones(k), lo, hi, smooth=1e-3, tolerance=1e-3,
+                             labels=[f"dimmers[n{i}]" for i in range(k)])
+    assert sorted(c.label for c in inf.conflict) == ["GridAverage", "GridMaximum"]
+    assert {c.bound for c in inf.conflict} == {150.0, 60.0}
+    # the phase-1 point, the violated pair at once, a check without each of the pair, and one
+    # for each member's best achievable value: 6 (the deletion filter over all: 12 + 2)
+    assert len(calls) <= 6
+    # independently: HiGHS finds the pair infeasible and each of its members feasible alone
+    mean = a.reshape(k, 12, n).mean(axis=2)
+    rows = [-mean[:, 0], *(a[:, n:2 * n].T), *(-mean[:, g] for g in range(2, 12))]
+    rhs = [-150.0, *np.full(n, 60.0), *np.full(10, -5.0)]
+    status = linprog(np.zeros(k), A_ub=np.array(rows), b_ub=np.array(rhs),
+                     bounds=[(0, 1)] * k, method="highs").status
+    assert status == 2
+    for drop in (slice(0, 1), slice(1, n + 1)):
+        keep = np.ones(len(rows), bool)
+        keep[drop] = False
+        assert linprog(np.zeros(k), A_ub=np.array(rows)[keep], b_ub=np.array(rhs)[keep],
+                       bounds=[(0, 1)] * k, method="highs").status == 0
+
+
 def test_exhaustive_small_grid_search_is_itself_sound():
     """The grid search above is an independent method only if it finds the LP's optimum on a
     problem where the LP is exact: checked once on two networks."""
