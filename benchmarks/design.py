@@ -4,7 +4,8 @@ meeting each grid's Eavg floor (its target, else 60 % of the start's average) an
 the dimmers alone and over dimmers + aims (±5°).
 
     python benchmarks/design.py [--quick] [--study PATH] [--aims] [--profile]
-        [--method auto|slsqp|augmented_lagrangian] [--courtyard BAYS]
+        [--method auto|slsqp|augmented_lagrangian] [--courtyard BAYS [--transport sampled]]
+        [--gr-max GR] [--check-prices K] [--table]
 
 Prints: variables, constrained steps (SLSQP), function evaluations, wall time of the design
 step (after the study's compute; its first call includes compilation, so the same design is
@@ -16,7 +17,11 @@ record). ``--profile`` prints cProfile's top functions (cumulative) of each firs
 the augmented Lagrangian above; docs/optimise.md). ``--courtyard BAYS`` runs a four-facade
 courtyard of BAYS bays a facade instead (``studies/courtyard/make_courtyard.py``'s full study
 with fewer bays, one level of patches, written to a temporary folder): 40 is the full
-``configs/courtyard.toml`` (3,000 luminaires), 10 a mid-size one (776 luminaires).
+``configs/courtyard.toml`` (3,000 luminaires), 10 a mid-size one (776 luminaires); with
+``--transport sampled`` on one level of patches and the ray-sampled operator. ``--gr-max``
+adds every observer's GR ceiling; ``--table`` prints each constraint's start, bound, achieved
+value and price; ``--check-prices K`` re-solves with each of the K dearest active grid
+constraints tightened by 2 % and prints the first-order price beside the re-solved cost.
 
 Where the dimmer-only design's first call went (demo, 10 networks, 21 constraints: the 12
 here and the study's own grid limits; empty compilation cache — this script turns JAX's
@@ -41,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import platform
+import re
 import time
 from pathlib import Path
 
@@ -49,7 +55,9 @@ from lumijax.cli import default_study_path
 from lumijax.optimise import optimise
 
 
-def constraints_for(results, start_stats):
+def constraints_for(results, start_stats, gr_max: float | None = None):
+    """Each grid's Eavg floor (its target, else 60 % of the start's average) and U0 floor (80 %
+    of the start's), and with ``gr_max`` every observer's GR ceiling (CIE 112)."""
     out = []
     for name, g in results.grids.items():
         s = start_stats[name]
@@ -58,14 +66,53 @@ def constraints_for(results, start_stats):
             out.append({"criterion": "avg", "grid": name, "min": float(floor)})
         if s["u0"] > 0:
             out.append({"criterion": "u0", "grid": name, "min": round(0.8 * s["u0"], 4)})
+    if gr_max is not None:
+        out.append({"criterion": "gr", "max": float(gr_max)})
     return out
 
 
-def courtyard_study(bays: int) -> Path:
+def check_prices(study, results, kw, rec, *, top: int = 3, fraction: float = 0.02) -> list[dict]:
+    """Each of the ``top`` dearest active grid constraints' price against a re-solve: its bound
+    tightened by ``fraction`` of itself, the least power found again; the first-order
+    estimate is ``price_per_unit × Δbound``. A grid's own target (``grids[k].target_lux``) is
+    tightened through the benchmark's Eavg floor of the same grid and bound."""
+    cons = kw["constraints"]
+    rows = sorted((r for r in rec["constraints"] if r["active"]
+                   and r.get("price_per_unit") is not None and r["criterion"] in ("avg", "u0")),
+                  key=lambda r: -abs(r["price_per_unit"] * r["bound"]))
+    out, seen = [], set()
+    for r in rows:
+        side = "min" if r["relation"] in (">=", "≥") else "max"
+        m = re.fullmatch(r"optimise\.constraints\[(\d+)\]\.(min|max)", r["key"])
+        grid = re.match(r"grid '(.+)'", r["label"])
+        i = int(m[1]) if m else next(
+            (k for k, c in enumerate(cons) if grid and c.get("grid") == grid[1]
+             and c["criterion"] == r["criterion"] and c.get(side) == r["bound"]), None)
+        if i is None or i in seen or len(out) == top:
+            continue
+        seen.add(i)
+        step = fraction * abs(r["bound"])
+        delta = step if side == "min" else -step
+        tight = [dict(c) for c in cons]
+        tight[i][side] = float(r["bound"]) + delta
+        if r["key"].startswith("grids["):  # the grid's own target must move with it
+            tight.append({"criterion": "avg", "grid": grid[1], side: float(r["bound"]) + delta})
+        t = time.perf_counter()
+        again = optimise(study, results, **{**kw, "constraints": tight}).constrained
+        out.append(dict(label=r["label"], bound=float(r["bound"]), new=float(r["bound"]) + delta,
+                        predicted=float(r["price_per_unit"]) * delta,
+                        resolved=again["objective_end"] - rec["objective_end"],
+                        verdict=again["verdict"], seconds=time.perf_counter() - t))
+    return out
+
+
+def courtyard_study(bays: int, transport: str = "blocks") -> Path:
     """The full courtyard study (``make_courtyard.FULL``) with ``bays`` bays a facade, written
     to a temporary folder: 40 bays is ``configs/courtyard.toml``'s scene (there: two levels of
     patches); fewer bays run on one level (operator_patches off; 75 patches asked a bay),
-    with the floods scaled with the facades' length."""
+    with the floods scaled with the facades' length. ``transport="sampled"``: one level of
+    patches with the ray-sampled operator (``[solver] transport``, docs/radiosity.md), as
+    ``benchmarks/courtyard.py --operator-patches 0 --transport sampled`` runs it."""
     import dataclasses
     import sys
     import tempfile
@@ -81,8 +128,27 @@ def courtyard_study(bays: int) -> Path:
             floods_per_facade=max(2, round(c.floods_per_facade * bays / c.bays)),
             target_patches=75 * bays * len(c.facades), operator_patches=None, spectral_samples=6,
             gather_rays=128)
+    if transport == "sampled":
+        c = dataclasses.replace(c, operator_patches=None)
     d = Path(tempfile.mkdtemp(prefix=f"courtyard{bays}_"))
-    return mc.write_study(c, d / "study.toml", d / "courtyard", "benchmark")
+    path = mc.write_study(c, d / "study.toml", d / "courtyard", "benchmark")
+    if transport != "blocks":
+        text = path.read_text(encoding="utf-8")
+        path.write_text(text.replace("[solver]\n", f'[solver]\ntransport = "{transport}"\n', 1),
+                        encoding="utf-8")
+    return path
+
+
+def _constraint_table(rec) -> None:
+    """Before/after per constraint: the start's exact value, the bound, the design's exact
+    value, and the price of an active one."""
+    print("\n| constraint | bound | start | achieved | active | price |")
+    print("|---|---|---|---|---|---|")
+    for c in rec["constraints"]:
+        price = c.get("price_sentence", "")
+        print(f"| {c['label']} | {c['relation']} {c['bound']:.4g} | {c['start']:.4g} | "
+              f"{c['achieved']:.4g} | {'yes' if c['active'] else ''} | {price} |")
+    print()
 
 
 def _profiled(fn, enabled):
@@ -160,13 +226,14 @@ def _timed_solver(probe: bool = False):
 
 
 def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
-        again: bool = True, method: str = "auto", computed=None, probe: bool = False):
+        again: bool = True, method: str = "auto", computed=None, probe: bool = False,
+        gr_max: float | None = None, prices: int = 0):
     study = lumijax.load_study(study_path) if computed is None else computed[0]
     t = time.perf_counter()
     results = lumijax.compute(study) if computed is None else computed[1]
     t_compute = time.perf_counter() - t
     start = {n: g.stats for n, g in results.grids.items()}
-    cons = constraints_for(results, start)
+    cons = constraints_for(results, start, gr_max)
     variables = ["dimmers", "aims"] if aims else ["dimmers"]
     kw = dict(objective="power", constraints=cons, variables=variables, method=method)
     if aims:
@@ -185,6 +252,7 @@ def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
     finally:
         restore()
     rec = opt.constrained
+    checked = check_prices(study, results, kw, rec, top=prices) if prices else []
     worst = max([max(0.0, -r["margin"]) for r in rec["constraints"]], default=0.0)
     # free variables: a dimmer per network, a tilt and a pan per re-aimed luminaire
     n_var = len(study.scene.networks) + 2 * len(opt.aimed)
@@ -196,7 +264,7 @@ def run(study_path: Path, *, aims: bool, quick: bool, profile: bool = False,
                 after=rec["objective_end"], solves=first_solves,
                 solver_s=sum(s[3] for s in first_solves),
                 rounds=len(rec["tightening_rounds"]), shortfall_first=rec["shortfall_first"],
-                study=study, results=results)
+                study=study, results=results, record=rec, prices=checked)
 
 
 def main():
@@ -214,9 +282,18 @@ def main():
                     help="time one evaluation of each kind at the first solve's design")
     ap.add_argument("--courtyard", type=int, default=None, metavar="BAYS",
                     help="a four-facade courtyard of BAYS bays a facade (40: the full one)")
+    ap.add_argument("--transport", choices=("blocks", "sampled"), default="blocks",
+                    help="with --courtyard: the operator (sampled: one level of patches)")
+    ap.add_argument("--gr-max", type=float, default=None,
+                    help="also a GR ceiling at every observer (the visitors' glare limit)")
+    ap.add_argument("--check-prices", type=int, default=0, metavar="K",
+                    help="re-solve with each of the K dearest active grid constraints "
+                         "tightened, against its price")
+    ap.add_argument("--table", action="store_true",
+                    help="print every constraint's start, bound, achieved value and price")
     args = ap.parse_args()
     if args.courtyard is not None:
-        args.study = courtyard_study(args.courtyard)
+        args.study = courtyard_study(args.courtyard, args.transport)
     if args.quick:  # the optimiser tests' small facade (4 spots, 2 networks), for a smoke run
         import sys
         import tempfile
@@ -240,7 +317,8 @@ def main():
         for method in args.method.split(","):
             r = run(args.study, aims=aims, quick=args.quick, profile=args.profile,
                     again=not args.once, method=method, computed=computed,
-                    probe=args.time_evaluations)
+                    probe=args.time_evaluations, gr_max=args.gr_max,
+                    prices=args.check_prices)
             computed = (r["study"], r["results"])  # one compute serves every method
             print(f"| {r['variables']} | {r['n_var']} | {r['n_constraints']} | {r['method']} "
                   f"| {r['steps']} | {r['evaluations']} "
@@ -250,6 +328,13 @@ def main():
             for m, it, ev, sec, msg in r["solves"]:
                 print(f"    solve: {m}, {it} steps, {ev} evaluations, {sec:.2f} s ({msg})",
                       flush=True)
+            if args.table:
+                _constraint_table(r["record"])
+            for p in r["prices"]:
+                ratio = p["resolved"] / p["predicted"] if p["predicted"] else float("nan")
+                print(f"    price of {p['label']} {p['bound']:.4g} → {p['new']:.4g}: predicted "
+                      f"{p['predicted']:+.2f} W, re-solved {p['resolved']:+.2f} W "
+                      f"(ratio {ratio:.3f}; {p['verdict']}; {p['seconds']:.2f} s)", flush=True)
     print("\ngoal: dimmer-only design < 2 s; aims < 5 min (timings on a shared machine are "
           "contended: run alone)")
 
