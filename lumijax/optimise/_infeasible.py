@@ -35,13 +35,42 @@ from ._constrained import DesignProblem, _g, solve_constrained
 __all__ = ["Conflict", "Infeasibility", "find_feasible", "explain_infeasible"]
 
 
-@eqx.filter_jit
 def _shortfall(problem, x, mask, smooth):
     def f(x):
         g = problem.g(x, smooth)
         return 0.5 * jnp.sum(jnp.where(mask, jnp.minimum(g, 0.0) ** 2, 0.0))
 
     return jax.value_and_grad(f)(x)
+
+
+_COMPILED: dict = {}  # the last few problems' structures → their compiled shortfall
+
+
+def _shortfall_of(problem):
+    """``(fn, leaves)``: ``fn(leaves, x, mask, smooth)`` is :func:`_shortfall` of ``problem``,
+    its arrays passed as the flat ``leaves``. A feasibility solve calls it hundreds of times;
+    through ``eqx.filter_jit`` each call partitioned the whole problem again (its luminaires'
+    sources and every constraint: ~700 leaves, 3.7 ms of an 11 ms call on the full courtyard,
+    cProfile), here once a solve. Problems of one structure and static values share ``fn``."""
+    dynamic, static = eqx.partition(problem, eqx.is_array)
+    leaves, dynamic_def = jax.tree_util.tree_flatten(dynamic)
+    static_leaves, static_def = jax.tree_util.tree_flatten(static)
+    try:
+        key = (dynamic_def, static_def, tuple(static_leaves))
+        fn = _COMPILED.get(key)
+    except TypeError:  # an unhashable static value: compiled for this problem alone
+        key, fn = None, None
+    if fn is None:
+        def flat(leaves, x, mask, smooth):
+            return _shortfall(eqx.combine(jax.tree_util.tree_unflatten(dynamic_def, leaves),
+                                          static), x, mask, smooth)
+
+        fn = jax.jit(flat)
+        if key is not None:
+            while len(_COMPILED) >= 4:
+                _COMPILED.pop(next(iter(_COMPILED)))
+            _COMPILED[key] = fn
+    return fn, leaves
 
 
 def find_feasible(problem: DesignProblem, starts, lo, hi, members, *, smooth: float,
@@ -53,9 +82,10 @@ def find_feasible(problem: DesignProblem, starts, lo, hi, members, *, smooth: fl
     m = len(problem.constraints)
     mask = jnp.asarray(np.isin(np.arange(m), list(members)))
     best = (False, np.asarray(starts[0], np.float64), -np.inf)
+    shortfall, leaves = _shortfall_of(problem)
     for x0 in starts:
         def fun(x):
-            v, g = _shortfall(problem, jnp.asarray(x), mask, jnp.asarray(smooth))
+            v, g = shortfall(leaves, jnp.asarray(x), mask, jnp.asarray(smooth))
             return float(v), np.asarray(g, np.float64)
 
         res = minimize(fun, np.clip(x0, lo, hi), jac=True, method="L-BFGS-B",

@@ -263,6 +263,36 @@ def test_a_conflict_among_many_satisfied_constraints_takes_few_checks(monkeypatc
                        bounds=[(0, 1)] * k, method="highs").status == 0
 
 
+def test_feasibility_of_problems_sharing_one_compiled_shortfall():
+    """Problems of one structure share the compiled shortfall (their arrays passed each call):
+    each is still judged on its own bounds and light, and a problem whose static values differ
+    (another reference level) is not mistaken for one seen before."""
+    from lumijax.optimise._infeasible import _COMPILED, find_feasible
+
+    rng = np.random.default_rng(7)
+    k, n = 3, 40
+    a = rng.uniform(50, 200, (k, 2 * n))
+    lo, hi = np.zeros(k), np.ones(k)
+
+    def feasible(avg_floor, ref=100.0):  # the bound is an array, the reference level static
+        c = GridAverage(label="GridAverage", key="k", unit="", sense=1,
+                        bound=jnp.asarray(avg_floor), ref=ref, start=0, stop=n)
+        prob = DesignProblem(DimmerLight(jnp.asarray(a), None), PowerModel(jnp.asarray(POWER)),
+                             (c, _c(GridMaximum, 60.0, n, 2 * n, sense=-1)),
+                             objective_scale=float(POWER.sum()))
+        return find_feasible(prob, [np.ones(k), hi], lo, hi, [0, 1], smooth=1e-3,
+                             tolerance=1e-3)[0]
+
+    # the LP's answer for each floor, independently
+    best = -linprog(-a[:, :n].mean(axis=1), A_ub=a[:, n:].T, b_ub=np.full(n, 60.0),
+                    bounds=[(0, 1)] * k, method="highs").fun
+    _COMPILED.clear()
+    assert feasible(0.5 * best) and not feasible(1.5 * best) and feasible(0.9 * best)
+    assert len(_COMPILED) == 1  # one structure, one compiled shortfall
+    assert not feasible(1.5 * best, ref=1.0) and feasible(0.5 * best, ref=1.0)
+    assert len(_COMPILED) == 2
+
+
 def test_exhaustive_small_grid_search_is_itself_sound():
     """The grid search above is an independent method only if it finds the LP's optimum on a
     problem where the LP is exact: checked once on two networks."""
