@@ -173,13 +173,16 @@ def _export(flat: Callable, leaves):
     raise ValueError("too many custom-call targets to export")
 
 
-def call(name: str, fn: Callable, args: tuple, code: str):
+def call(name: str, fn: Callable, args: tuple, code: str,
+         compiler_options: dict | None = None):
     """``fn(*args)``, through a stored export of ``fn`` when the compilation cache is on.
 
     ``fn`` must be traceable with its array arguments (equinox's ``is_array`` leaves of
     ``args``) as inputs and everything else static, and return a ``dict`` of arrays (a
     structure ``jax.export`` can serialise). ``code`` is :func:`source_digest` of the modules
-    it traces. Returns None, having traced nothing, when the call is not for the cache (the
+    it traces; ``compiler_options`` are XLA's for the executable (the stored program does not
+    depend on them; the compilation cache keys its executables by them). Returns None, having
+    traced nothing, when the call is not for the cache (the
     cache off, a traced or multi-device argument, an unkeyable static value) or ``fn`` cannot
     be exported (warned once): the caller then makes its plain call.
     """
@@ -202,10 +205,15 @@ def call(name: str, fn: Callable, args: tuple, code: str):
     if key is None:
         return None
     file = folder / f"{name}-{key}.ljxe"
+    def run(exp):
+        if compiler_options is None:
+            return exp.call(*leaves)
+        return jax.jit(exp.call, compiler_options=compiler_options)(*leaves)
+
     exp = _read(file)
     if exp is not None:
         try:
-            return exp.call(*leaves)
+            return run(exp)
         except Exception as e:  # a program that does not fit its key: rebuilt below
             _warn("call", f"exported program {file} could not be called ({type(e).__name__}: "
                   f"{e}): rebuilt")
@@ -217,4 +225,4 @@ def call(name: str, fn: Callable, args: tuple, code: str):
               "in every process")
         return None
     _write(folder, file, payload)
-    return exp.call(*leaves)
+    return run(exp)
