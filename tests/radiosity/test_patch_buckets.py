@@ -44,3 +44,15 @@ def sol_solver():
     from lumijax.radiosity._solvers import radiosity_solver
 
     return radiosity_solver("refined")
+
+
+def test_small_solves_compile_unoptimised_and_large_ones_optimised():
+    # radiosity/_solve.py, "Small solves": by padded patches × columns; the dense check above
+    # (1,280 × 3 values) runs the unoptimised program, the demo (3,584 × 60) the optimised one
+    from lumijax.radiosity._solve import SMALL_SOLVE, SMALL_SOLVE_OPTIONS, compiler_options
+
+    assert SMALL_SOLVE == 65_536
+    assert compiler_options(np.zeros((1280, 3))) is SMALL_SOLVE_OPTIONS
+    assert compiler_options(np.zeros((4096, 16))) is SMALL_SOLVE_OPTIONS
+    assert compiler_options(np.zeros((4096, 16, 2))) is None
+    assert compiler_options(np.zeros((106_496, 1))) is None
