@@ -578,7 +578,9 @@ SMALL_SOLVE_OPTIONS = {"xla_backend_optimization_level": 0}
 """XLA's options for a small solve: LLVM's optimisation passes off."""
 
 _solve_jit = eqx.filter_jit(_solve_body)
-_solve_jit_small = eqx.filter_jit(_solve_body, compiler_options=SMALL_SOLVE_OPTIONS)
+# equinox passes keyword arguments on to jax.jit; its typed overloads do not list them
+_solve_jit_small = eqx.filter_jit(  # type: ignore[call-overload]
+    _solve_body, compiler_options=SMALL_SOLVE_OPTIONS)
 
 
 def _residual(op: ReflectionOperator, b0, b):
