@@ -56,3 +56,28 @@ def test_small_solves_compile_unoptimised_and_large_ones_optimised():
     assert compiler_options(np.zeros((4096, 16))) is SMALL_SOLVE_OPTIONS
     assert compiler_options(np.zeros((4096, 16, 2))) is None
     assert compiler_options(np.zeros((106_496, 1))) is None
+
+
+def test_a_small_solve_asks_for_the_unoptimised_program_and_a_traced_one_does_not(
+        cube_room, monkeypatch):
+    # the options must reach the compiled call (the stored export's, the suite's cache being
+    # on), and never a solve inside the caller's trace, where XLA refuses them
+    import jax
+
+    from lumijax import _export
+    from lumijax.radiosity._solve import SMALL_SOLVE_OPTIONS
+
+    p, _, op = cube_room
+    asked, real = [], _export.call
+
+    def spy(*args, **kw):
+        asked.append(kw.get("compiler_options"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(_export, "call", spy)
+    rho, b0 = jnp.full(p.n, 0.5), jnp.ones((p.n, 1))
+    plain = solve_radiosity(op, rho, b0)
+    assert asked == [SMALL_SOLVE_OPTIONS]
+    traced = jax.jit(lambda r: solve_radiosity(op, r, b0).value)(rho)
+    assert asked[1:] in ([], [None])  # a traced call is not for the cache, nor for the options
+    np.testing.assert_allclose(np.asarray(traced), np.asarray(plain.value), rtol=1e-12)
