@@ -223,8 +223,13 @@ def sampled_main(args) -> None:
     if args.accuracy:
         return _accuracy(args, study, tri, group, area, caster)
     rows, last = [], None
-    for target in args.patches:
+    for k, target in enumerate(args.patches):
         p = mesh_patches(tri, group=group, patch_size=auto_patch_size(area, target))
+        if k == 0:  # the kernels compile once a process (the command line keeps them on disk)
+            t = time.perf_counter()
+            build_sampled(p, tri, SampledSettings(rays_per_patch=args.rays[0]), caster=caster)
+            print(f"  first build of {p.n:,} patches, compiling the kernels (not in the table): "
+                  f"{time.perf_counter() - t:.1f} s", flush=True)
         raw = _raw_rate(caster, p, args.rays[0], SampledSettings().batch)
         t = time.perf_counter()
         op = build_sampled(p, tri, SampledSettings(rays_per_patch=args.rays[0]), caster=caster)

@@ -142,9 +142,10 @@ def threaded_map(fn: Callable[[Any], Any], items: Iterable[Any],
     :func:`local_threads`) running at once in this process.
 
     For work whose heavy calls release the GIL (Embree's ray queries, NumPy's loops over large
-    arrays): one batch's rays are traced while another's hits are sorted. At most ``threads``
-    results are held beyond the one being consumed, so memory stays that of ``threads``
-    batches. ``threads=1`` is the plain loop, no thread started."""
+    arrays): one batch's rays are traced while another's hits are sorted. One item more than
+    ``threads`` is submitted, so every thread stays busy while the caller consumes a result;
+    memory stays that of ``threads + 1`` batches. ``threads=1`` is the plain loop, no thread
+    started."""
     threads = local_threads() if threads is None else int(threads)
     if threads <= 1:
         yield from (fn(item) for item in items)
@@ -157,7 +158,7 @@ def threaded_map(fn: Callable[[Any], Any], items: Iterable[Any],
         try:
             for item in it:
                 pending.append(pool.submit(fn, item))
-                if len(pending) >= threads:
+                if len(pending) > threads:
                     yield pending.popleft().result()
             while pending:
                 yield pending.popleft().result()

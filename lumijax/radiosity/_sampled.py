@@ -533,35 +533,19 @@ def build_sampled(
 
     ex = current_executor()
     if batches is not None:
-        parts = list(batches(one, spans))
+        parts = batches(one, spans)
     elif ex.distributed and len(spans) > 1:
-        parts = []
-        for (_, b), part in zip(spans, ex.map(_batch_task, spans, shared=dict(
-                patches=patches, caster=caster, settings=s, locator=locator, front=front)),
-                                strict=True):
-            parts.append(part)
-            if progress is not None:
-                progress(b, patches.n)
+        parts = ex.map(_batch_task, spans, shared=dict(
+            patches=patches, caster=caster, settings=s, locator=locator, front=front))
     else:  # here: Embree and NumPy release the GIL, so batches overlap on threads
-        parts = []
-        for (_, b), part in zip(spans, threaded_map(lambda span: one(*span), spans, threads),
-                                strict=True):
-            parts.append(part)
-            if progress is not None:
-                progress(b, patches.n)
-    n = int(sum(len(p[0]) for p in parts))
-    chunk = max(1, min(_STEP, n))
-    total = -(-max(n, 1) // chunk) * chunk
-    recv = np.full(total, patches.n, np.int32)  # padding: the zero patch, weight 0
-    src = np.full(total, patches.n, np.int32)
-    weight = np.zeros(total, dtype)
-    k = 0
-    for r, c, w, _ in parts:
-        recv[k:k + len(r)], src[k:k + len(r)], weight[k:k + len(r)] = r, c, w
-        k += len(r)
-    rays = int(sum(p[3]["rays"] for p in parts))
-    ray_s = float(sum(p[3]["ray_s"] for p in parts))
-    del parts
+        parts = threaded_map(lambda span: one(*span), spans, threads)
+    links = _Links(patches.n * s.rays_per_patch, dtype)
+    for (_, b), part in zip(spans, parts, strict=True):
+        links.add(*part)  # while the next batches trace: no serial tail of copies
+        if progress is not None:
+            progress(b, patches.n)
+    recv, src, weight, chunk = links.padded(patches.n)
+    n, rays, ray_s = links.n, links.rays, links.ray_s
     bucket = SampledBucket(jnp.asarray(weight), jnp.asarray(recv), jnp.asarray(src),
                            chunk=chunk)
     build_s = time.perf_counter() - t0
@@ -572,6 +556,39 @@ def build_sampled(
     area = jnp.asarray(patches.area, dtype=jnp.float64 if jax.config.jax_enable_x64 else None)
     return TransportOperator((bucket,), area, jnp.zeros(patches.n, jnp.int32), patches.n, 1,
                              info)
+
+
+class _Links:
+    """The links of the batches in one set of arrays, copied in as each batch arrives.
+
+    The arrays are reserved for every ray a link (:func:`sampled_bytes`) but only the pages
+    written become resident; the copies overlap the batches still tracing instead of
+    following them all (at 1.9·10⁵ patches that tail was 0.9–3.8 s, mostly first touches of
+    fresh memory, which cost this project's VM ~3 ms a MiB: benchmarks/RESULTS.md)."""
+
+    def __init__(self, most: int, dtype) -> None:
+        most += _STEP  # and the padding of the last whole chunk
+        self.recv = np.empty(most, np.int32)
+        self.src = np.empty(most, np.int32)
+        self.weight = np.empty(most, dtype)
+        self.n, self.rays, self.ray_s = 0, 0, 0.0
+
+    def add(self, r, c, w, counts: dict) -> None:
+        k, m = self.n, len(r)
+        self.recv[k:k + m], self.src[k:k + m], self.weight[k:k + m] = r, c, w
+        self.n += m
+        self.rays += int(counts["rays"])
+        self.ray_s += float(counts["ray_s"])
+
+    def padded(self, zero: int):
+        """``(recv, src, weight, chunk)`` in whole chunks of at most ``_STEP`` links, the
+        padding links of weight 0 from the zero patch ``zero`` to itself."""
+        chunk = max(1, min(_STEP, self.n))
+        total = -(-max(self.n, 1) // chunk) * chunk
+        self.recv[self.n:total] = zero
+        self.src[self.n:total] = zero
+        self.weight[self.n:total] = 0
+        return self.recv[:total], self.src[:total], self.weight[:total], chunk
 
 
 def _batch_task(span, *, patches, caster, settings, locator, front):

@@ -101,7 +101,7 @@ def test_an_error_in_a_threaded_item_reaches_the_caller_and_stops_the_rest():
     assert next(out) == 0
     with pytest.raises(ValueError, match="item 1"):
         next(out)
-    assert len(ran) < 10  # in flight at most two at a time; the rest never started
+    assert len(ran) < 10  # in flight at most three (threads + 1); the rest never started
 
 
 @pytest.mark.parametrize("n,parts", [(10, 3), (3, 8), (1, 1), (0, 4), (1000, 7)])

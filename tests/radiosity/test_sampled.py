@@ -108,6 +108,40 @@ def test_locator_finds_the_patch_holding_a_point():
     assert np.array_equal(loc(None, src, bary), own)
 
 
+@pytest.mark.parametrize("sliver_share", [0.03, 0.3, 1.0])
+def test_front_hits_find_the_patch_of_every_front_hit(sliver_share):
+    # what the sampled build asks of the locator: Embree's (triangle, u, v) of a hit on a grid,
+    # a sliver (the bisection tree) or a whole triangle; misses and back faces carry nothing
+    tri = np.array([[[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+                    [[0, 0, 1], [6, 0, 1], [6, 0.4, 1]],
+                    [[5, 5, 5], [5.1, 5, 5], [5, 5.1, 5]]], float)
+    p = mesh_patches(tri, patch_size=0.5)
+    loc = PatchLocator(p, tri)
+    src = np.asarray(p.source_triangle)
+    rng = np.random.default_rng(5)
+    k = 5000
+    on_sliver = rng.random(k) < sliver_share
+    own = np.where(on_sliver, rng.choice(np.flatnonzero(src == 1), k),
+                   rng.choice(np.flatnonzero(src != 1), k))
+    u = rng.random((k, 2))
+    u = np.where(u.sum(1, keepdims=True) > 1, 1 - u, u)
+    v = p.vertices[own]
+    pts = v[:, 0] + u[:, :1] * (v[:, 1] - v[:, 0]) + u[:, 1:] * (v[:, 2] - v[:, 0])
+    t = tri[src[own]]
+    e = np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]], axis=2)
+    bary = np.linalg.solve(np.einsum("kij,kil->kjl", e, e),
+                           np.einsum("kij,ki->kj", e, pts - t[:, 0])[..., None])[..., 0]
+    front = np.zeros((3, 3), np.float32)
+    front[src] = p.normal
+    hit_tri = src[own].astype(np.int32)
+    dirs = -front[hit_tri] * np.where(rng.random(k) < 0.9, 1.0, -1.0)[:, None]  # 10 % backs
+    hit_tri[rng.random(k) < 0.1] = -1  # and 10 % misses
+    want = np.where((hit_tri >= 0) & (np.einsum("ij,ij->i", dirs, front[hit_tri]) < 0), own, -1)
+    got = loc.front_hits(hit_tri, bary.astype(np.float32), dirs.astype(np.float32), front)
+    assert np.array_equal(got, want)
+    assert 0 < (want[on_sliver] >= 0).sum() and (want >= 0).sum() > 0.7 * k
+
+
 def _furnished_triangles():
     """A 4 × 3 × 2.8 m room with a desk and a partition: shadows, near pairs, open edges."""
     m = trimesh.creation.box(extents=(4.0, 3.0, 2.8))
