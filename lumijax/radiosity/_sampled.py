@@ -301,13 +301,14 @@ class PatchLocator:
         return self._resolve(out, points, tri, uv)
 
     def front_hits(self, tri: Int[np.ndarray, " k"], uv: Float[np.ndarray, "k 2"],
-                   dirs: Float[np.ndarray, "k 3"], front: Float[np.ndarray, "tri 3"]
-                   ) -> Int[np.ndarray, " k"]:
+                   dirs: Float[np.ndarray, "k 3"], front: Float[np.ndarray, "tri 3"],
+                   at_least: int = 0) -> Int[np.ndarray, " k"]:
         """The patch each ray of a :meth:`~lumijax.scene.RayCaster.first_hit_local` query hit
         (triangle ``tri``, −1 none; its ``uv``; the rays' ``dirs``), −1 where it met no patch
-        or the back of one (``front``: each triangle's front normal)."""
+        or the back of one (``front``: each triangle's front normal). The query is padded to
+        a power of two of at least ``at_least`` rays (one compiled shape for every batch)."""
         k = len(tri)
-        size = max(1024, 1 << max(k - 1, 0).bit_length())
+        size = max(1024, 1 << max(k - 1, at_least - 1, 0).bit_length())
         pad = size - k
         t = np.pad(np.asarray(tri, np.int32), (0, pad), constant_values=-1)
         w = np.pad(np.asarray(uv, np.float32), ((0, pad), (0, 0)))
@@ -387,9 +388,11 @@ def _front_hits(tri, uv, dirs, front, tables, height: int):
     return jnp.where(facing, _patch_of(tri, uv, tables, height), -1)
 
 
-def _rays(vertices, frames, local, shift, lift: float, centre, nudge: float):
+def _rays(vertices, frames, local, shift, lift: float, centre, nudge: float, size: int = 0):
     """The rays of a batch in a ray caster's own terms (float32, :meth:`~lumijax.scene.
-    RayCaster.first_hit_local`): ``(starts, directions)``, each ``(p · rays, 3)``.
+    RayCaster.first_hit_local`): ``(starts, directions)``, each ``(p · rays, 3)``; made for
+    at least ``size`` patches (a short last batch is padded, so every batch of a build, and
+    of any other study with the same batch and rays, runs one compiled kernel).
 
     The directions are ``frame @ local`` (unit, cosine-weighted about each patch's normal, the
     frame's z column); the starts are ``rays`` stratified points on each patch — the R2
@@ -402,10 +405,16 @@ def _rays(vertices, frames, local, shift, lift: float, centre, nudge: float):
     edges = (np.asarray(vertices[:, 1:], np.float64) - v0[:, None]).astype(np.float32)
     k = np.arange(len(local)) + 0.5
     seq = np.stack([k / _R2, k / _R2**2], axis=1) % 1.0  # R2 in float64: k/R2 grows with k
-    starts, dirs = _ray_kernel(base, edges, frames.astype(np.float32),
-                               np.asarray(local, np.float32), seq.astype(np.float32),
-                               shift.astype(np.float32), np.float32(nudge))
-    return np.array(starts), np.array(dirs)  # writable host copies, as Embree's binding wants
+    p, grow = len(base), max(size - len(base), 0)
+    frames, shift = np.asarray(frames, np.float32), np.asarray(shift, np.float32)
+    if grow:
+        base, edges, frames, shift = (np.concatenate([a, np.zeros((grow, *a.shape[1:]),
+                                                                  a.dtype)])
+                                      for a in (base, edges, frames, shift))
+    starts, dirs = _ray_kernel(base, edges, frames, np.asarray(local, np.float32),
+                               seq.astype(np.float32), shift, np.float32(nudge))
+    n = p * len(local)  # writable host copies, as Embree's binding wants
+    return np.array(np.asarray(starts)[:n]), np.array(np.asarray(dirs)[:n])
 
 
 @jax.jit
@@ -445,7 +454,8 @@ def sample_batch(
     local = _cosine_directions(n_rays)[np.random.default_rng(settings.seed).permutation(n_rays)]
     centre, nudge = np.asarray(caster.origin, np.float64), float(caster.epsilon)
     o, dirs = _rays(patches.vertices[start:stop], frames, local,
-                    rng.uniform(size=(stop - start, 2)), 10.0 * nudge, centre, nudge)
+                    rng.uniform(size=(stop - start, 2)), 10.0 * nudge, centre, nudge,
+                    size=settings.batch)
     glazed = getattr(caster, "glazing_key", None) is not None
     if glazed:  # clear panes pass the ray on to what lies behind, carrying τ(θ) of each
         o, dirs = o + centre, dirs.astype(np.float64)  # in the caster's public terms
@@ -462,7 +472,7 @@ def sample_batch(
         keep = j >= 0
         hit, j = hit[keep], j[keep]
     else:
-        j = locator.front_hits(tri, uv, dirs, front)
+        j = locator.front_hits(tri, uv, dirs, front, at_least=settings.batch * n_rays)
         hit = np.flatnonzero(j >= 0)
         j = j[hit]
     key = (hit // n_rays + start) * patches.n + j
