@@ -309,10 +309,9 @@ class PatchLocator:
         a power of two of at least ``at_least`` rays (one compiled shape for every batch)."""
         k = len(tri)
         size = max(1024, 1 << max(k - 1, at_least - 1, 0).bit_length())
-        pad = size - k
-        t = np.pad(np.asarray(tri, np.int32), (0, pad), constant_values=-1)
-        w = np.pad(np.asarray(uv, np.float32), ((0, pad), (0, 0)))
-        d = np.pad(np.asarray(dirs, np.float32), ((0, pad), (0, 0)))
+        t = _padded(np.asarray(tri, np.int32), size, -1)
+        w = _padded(np.asarray(uv, np.float32), size, 0.0)
+        d = _padded(np.asarray(dirs, np.float32), size, 0.0)
         out = np.asarray(_front_hits(t, w, d, np.asarray(front, np.float32), self.tables(),
                                      self.height))[:k]
         return self._resolve(out.astype(np.int64), None, np.asarray(tri, np.int64), uv)
@@ -332,6 +331,15 @@ class PatchLocator:
         t = self.triangles[tri]
         uv = np.asarray(uv, np.float64)
         return t[:, 0] + uv[:, :1] * (t[:, 1] - t[:, 0]) + uv[:, 1:] * (t[:, 2] - t[:, 0])
+
+
+def _padded(a: np.ndarray, size: int, fill) -> np.ndarray:
+    """``a`` grown to ``size`` rows of ``fill`` (``a`` itself when it has them: no copy)."""
+    if len(a) == size:
+        return a
+    out = np.full((size, *a.shape[1:]), fill, a.dtype)
+    out[:len(a)] = a
+    return out
 
 
 def _halves(fn, n: int):
@@ -413,8 +421,8 @@ def _rays(vertices, frames, local, shift, lift: float, centre, nudge: float, siz
                                       for a in (base, edges, frames, shift))
     starts, dirs = _ray_kernel(base, edges, frames, np.asarray(local, np.float32),
                                seq.astype(np.float32), shift, np.float32(nudge))
-    n = p * len(local)  # writable host copies, as Embree's binding wants
-    return np.array(np.asarray(starts)[:n]), np.array(np.asarray(dirs)[:n])
+    n = p * len(local)  # views of the kernel's buffers (Embree reads them in place)
+    return np.asarray(starts)[:n], np.asarray(dirs)[:n]
 
 
 @jax.jit

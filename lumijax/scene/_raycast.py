@@ -236,13 +236,23 @@ class RayCaster:
         if self._scene is None or n == 0:
             return np.full(n, -1, np.int32), np.full(n, 1e37, np.float32), np.zeros((n, 2),
                                                                                     np.float32)
-        parts = [self._scene.run(starts[s:s + _CHUNK], directions[s:s + _CHUNK], output=1)
+        parts = [self._run_local(starts[s:s + _CHUNK], directions[s:s + _CHUNK])
                  for s in range(0, n, _CHUNK)]
         if len(parts) == 1:
             r = parts[0]
             return r["primID"], r["tfar"], np.stack([r["u"], r["v"]], axis=1)
         cat = {k: np.concatenate([r[k] for r in parts]) for k in ("primID", "tfar", "u", "v")}
         return cat["primID"], cat["tfar"], np.stack([cat["u"], cat["v"]], axis=1)
+
+    def _run_local(self, starts, directions) -> dict:
+        """One Embree query; read-only rays (a view of an XLA result: no copy) are copied
+        only for a binding that wants them writable (embreex before 4 declares no const)."""
+        try:
+            return self._scene.run(starts, directions, output=1)
+        except ValueError:
+            if starts.flags.writeable and directions.flags.writeable:
+                raise
+            return self._scene.run(np.array(starts), np.array(directions), output=1)
 
 
 def _unpickled_caster(key: str, triangles: np.ndarray) -> RayCaster:

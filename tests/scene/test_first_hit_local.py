@@ -37,3 +37,28 @@ def test_a_caster_with_no_triangles_hits_nothing():
     tri, dist, uv = caster.first_hit_local(np.zeros((3, 3), np.float32),
                                            np.tile(np.float32([0, 0, 1]), (3, 1)))
     assert np.all(tri == -1) and np.all(dist >= 1e37) and np.all(uv == 0)
+
+
+def test_read_only_rays_are_traced_in_place_or_copied_for_a_binding_that_wants_to_write():
+    box = trimesh.creation.box((2.0, 2.0, 2.0))
+    caster = RayCaster(box.triangles)
+    starts = np.zeros((4, 3), np.float32) - caster.origin.astype(np.float32)
+    d = np.tile(np.float32([0, 0, 1]), (4, 1))
+    want = caster.first_hit_local(starts.copy(), d.copy())
+    starts.flags.writeable = d.flags.writeable = False  # as a view of an XLA result is
+    got = caster.first_hit_local(starts, d)
+    assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+
+    class Writing:  # embreex before 4: buffers declared without const
+        def __init__(self, scene):
+            self.scene, self.calls = scene, 0
+
+        def run(self, o, dd, output):
+            self.calls += 1
+            if not (o.flags.writeable and dd.flags.writeable):
+                raise ValueError("buffer source array is read-only")
+            return self.scene.run(o, dd, output=output)
+
+    caster._scene = old = Writing(caster._scene)
+    got = caster.first_hit_local(starts, d)
+    assert old.calls == 2 and all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
