@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..kernels import far_g, form_factor_point_triangle, rounding_length, triangle_spread
-from ..parallel import Executor, batches, current_executor
+from ..parallel import Executor, batches, current_executor, threaded_map
 from ._hierarchy import cluster_tree, walk_block_tree
 from ._lowrank import Obstacles, aca_block, block_spheres, truncate_block, well_separated
 from ._operator import Bucket, Info, LowRankBucket, TransportOperator
@@ -345,24 +345,25 @@ def _near_task(pairs, *, patches, part, settings, caster, diam, spread):
 
 
 def _near_blocks(executor, pairs, computed, patches, part, s, caster, counters, diam, spread):
-    """Each pair's dense block (float64), in ``pairs`` order: here one by one (the blocks
-    already computed by the far field first), or in batches on a cluster's workers, each
-    consumed before the next is fetched."""
+    """Each pair's dense block (float64), in ``pairs`` order (the blocks already computed by
+    the far field first): here on threads, a block a task (the contour kernels, Embree and
+    NumPy's loops release the GIL; each block is what it would be alone, so the operator is
+    the same bit for bit), or in batches on a cluster's workers, each consumed before the
+    next is fetched."""
     ex = current_executor() if executor is None else executor
     todo = [p for p in pairs if p not in computed]
-    results = iter(())
+    shared = dict(patches=patches, part=part, settings=s, caster=caster, diam=diam,
+                  spread=spread)
     if ex.distributed and todo:
         results = ex.map(_near_task, [[todo[i] for i in r] for r in batches(len(todo),
                                                                               ex.parts())],
-                         shared=dict(patches=patches, part=part, settings=s, caster=caster,
-                                     diam=diam, spread=spread))
+                         shared=shared)
+    else:
+        results = threaded_map(lambda pair: _near_task([pair], **shared), todo)
     pending: list = []
     for a, b in pairs:
         g = computed.pop((a, b), None)
-        if g is None and not ex.distributed:
-            g = _pair_block(patches, part.block(a), part.block(b), a == b, s, caster, counters,
-                            diam, spread)
-        elif g is None:
+        if g is None:
             if not pending:
                 pending, got = next(results)
                 pending.reverse()
@@ -400,7 +401,7 @@ def build_operator(
         low-rank far field prove a block pair unshadowed geometrically instead of by sampling.
     executor
         Where the near-field blocks are computed (:mod:`lumijax.parallel`); default
-        :func:`~lumijax.parallel.current_executor`, the loop here unless a cluster was given.
+        :func:`~lumijax.parallel.current_executor`: threads here unless a cluster was given.
         The far-field walk stays here (it decides which pairs are near).
     """
     from ..scene._raycast import RayCaster
