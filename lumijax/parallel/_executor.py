@@ -145,19 +145,29 @@ def threaded_map(fn: Callable[[Any], Any], items: Iterable[Any],
     arrays): one batch's rays are traced while another's hits are sorted. One item more than
     ``threads`` is submitted, so every thread stays busy while the caller consumes a result;
     memory stays that of ``threads + 1`` batches. ``threads=1`` is the plain loop, no thread
-    started."""
+    started. The items run in the caller's precision: JAX's x64 switch is a context of each
+    thread (a float64 study turns it on in a ``with`` block), so it is carried into the
+    threads, as :class:`DaskExecutor` carries it to its workers."""
     threads = local_threads() if threads is None else int(threads)
     if threads <= 1:
         yield from (fn(item) for item in items)
         return
     from concurrent.futures import ThreadPoolExecutor
 
+    import jax
+
+    x64 = bool(jax.config.jax_enable_x64)
+
+    def run(item):
+        with jax.enable_x64(x64):
+            return fn(item)
+
     pending: collections.deque = collections.deque()
     it = iter(items)
     with ThreadPoolExecutor(threads, thread_name_prefix="lumijax") as pool:
         try:
             for item in it:
-                pending.append(pool.submit(fn, item))
+                pending.append(pool.submit(run, item))
                 if len(pending) > threads:
                     yield pending.popleft().result()
             while pending:

@@ -112,3 +112,21 @@ def test_batches_cover_the_range_once_in_nearly_equal_parts(n, parts):
     if got:
         sizes = [len(r) for r in got]
         assert max(sizes) - min(sizes) <= 1
+
+
+def test_threaded_items_run_in_the_caller_s_precision():
+    # a float64 study turns x64 on in a with block, a context of its own thread: the items on
+    # other threads must see it too, or their kernels quietly run in float32
+    import jax
+    import jax.numpy as jnp
+
+    before = bool(jax.config.jax_enable_x64)
+    try:
+        for global_x64, local_x64 in ((False, True), (True, False)):
+            jax.config.update("jax_enable_x64", global_x64)
+            with jax.enable_x64(local_x64):
+                got = set(threaded_map(lambda _: jnp.zeros(1).dtype.itemsize, range(6),
+                                       threads=2))
+            assert got == {8 if local_x64 else 4}
+    finally:
+        jax.config.update("jax_enable_x64", before)
