@@ -293,10 +293,8 @@ class PatchLocator:
         if uv is None:
             uv = self._uv(points, tri) if k else np.zeros((0, 2))
         size = max(1024, 1 << max(k - 1, 0).bit_length())  # a few shapes, a few compilations
-        t = np.full(size, -1, np.int32)
-        t[:k] = tri
-        w = np.zeros((size, 2), np.float32)
-        w[:k] = uv
+        t = _padded(tri.astype(np.int32), size, -1)
+        w = _padded(np.asarray(uv, np.float32), size, 0.0)
         out = np.asarray(_lookup(t, w, self.tables(), self.height))[:k].astype(np.int64)
         return self._resolve(out, points, tri, uv)
 
