@@ -15,7 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lumijax"
 LAYERS = [
     ("errors", "_version", "_lazy"),
     ("_atomic", "_registry", "_jit_cache"),
-    ("_export",),
+    ("_executables",),
     ("parallel",),
     ("config",),
     ("spectral",),

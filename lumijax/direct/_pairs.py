@@ -29,11 +29,11 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .. import _executables
 from .._jit_cache import to_device
 from ..kernels import pair_light
 from ..photometry._distribution import angles_to_direction
@@ -424,7 +424,7 @@ def _bucket(n: int) -> int:
     return min(size, _PAIRS_PER_CALL)
 
 
-@jax.jit
+@_executables.stored("light_block", "direct/_pairs.py", "kernels/", "photometry/")
 def _light_block(distribution, rotations, luminaire, direction, gain):
     return pair_light(distribution, rotations[luminaire], direction, gain)
 

@@ -29,12 +29,12 @@ import time
 from dataclasses import dataclass, field
 from typing import NamedTuple, TypeVar
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
+from .. import _executables
 from .._jit_cache import to_device
 from ..direct import direct_illuminance
 from ..radiosity import Patches, RadiositySolution, TransportOperator
@@ -48,7 +48,7 @@ __all__ = ["LightingSolution", "Level", "float64_scope"]
 _T = TypeVar("_T")
 
 
-@eqx.filter_jit
+@_executables.stored("corrected_matmul", "lighting/_solution.py", "radiosity/", "kernels/")
 def _corrected_matmul(transport, b):
     """``F' b`` with the solve's row correction (:meth:`LightingSolution.patch_illuminance`):
     one compiled program where its eager ops compiled a dozen in every process."""

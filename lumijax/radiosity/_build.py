@@ -23,6 +23,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _executables
+from .._jit_cache import to_device
 from ..kernels import far_g, form_factor_point_triangle, rounding_length, triangle_spread
 from ..parallel import Executor, batches, current_executor, threaded_map
 from ._hierarchy import cluster_tree, walk_block_tree
@@ -176,7 +178,7 @@ def _far_field(patches, part, s: FormFactorSettings, caster, triangles, diam, co
 _BATCH = 4096
 
 
-@jax.jit
+@_executables.stored("contour_flat", "radiosity/_build.py", "kernels/")
 def _contour_flat(q, n, tri):
     """Point→triangle factors for (M,) receiver points q, normals n and triangles tri."""
     return form_factor_point_triangle(q, n, tri)
@@ -478,7 +480,7 @@ def build_operator(
             src[slot, : len(ib)] = ib
         buckets.append(
             Bucket(
-                *(jnp.asarray(x) for x in (blocks, recv, src, rblk, sblk)), diagonal=diagonal,
+                *(to_device(x) for x in (blocks, recv, src, rblk, sblk)), diagonal=diagonal,
                 chunk=chunk,
             )
         )
@@ -505,6 +507,7 @@ def build_operator(
         build_time_s=time.perf_counter() - t_start,
         settings=dataclasses.asdict(s),
     )
-    area = jnp.asarray(patches.area, dtype=jnp.float64 if jax.config.jax_enable_x64 else None)
-    block_of = jnp.asarray(part.block_of, jnp.int32)
+    # to_device: numpy's cast and a transfer, no eager kernel per shape and process
+    area = to_device(patches.area, np.float64 if jax.config.jax_enable_x64 else None)
+    block_of = to_device(part.block_of, np.int32)
     return TransportOperator(tuple(buckets), area, block_of, npatch, part.n_blocks, info)

@@ -14,13 +14,13 @@ results are reproducible.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import jax
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .. import _executables
 from .._jit_cache import to_device
 
 __all__ = ["GatherOperator", "build_gather", "build_sensor_gather"]
@@ -55,7 +55,7 @@ class GatherOperator:
                            minlength=self.n_points).astype(np.float64, copy=False)
 
 
-@functools.partial(jax.jit, static_argnums=4)
+@_executables.stored("gather_apply", "radiosity/_gather.py", static_argnums=4)
 def _apply(b, patch, weight, point, n_points):
     """``E = G @ B`` as one compiled program (its eager ops, each compiled per process, cost
     more than the gather on a small study: docs/radiosity.md, "Caches")."""

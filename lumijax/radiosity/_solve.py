@@ -70,7 +70,7 @@ import lineax as lx
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from .. import _export
+from .. import _executables
 from .._jit_cache import to_device
 from ..errors import SolveError
 from ._krylov import column_max
@@ -500,16 +500,16 @@ def _padded_solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau
 
 def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, partner=None):
     """The compiled part of :func:`solve_radiosity` (once per shape and solver): in a run with
-    the compilation cache on (the command line), through a stored export of it
-    (:mod:`lumijax._export`: a new process neither traces nor lowers it again); else, and
+    the compilation cache on (the command line), through its stored executable
+    (:mod:`lumijax._executables`: a new process neither traces nor lowers it again); else, and
     inside a trace, the jitted :func:`_solve_body`. The two give the same bits."""
     args = (transport, rho, b0, solver, rtol, max_steps, correct_rows, tau, partner)
     # XLA takes options for a whole program only: inside a trace the caller's program decides
     traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(args))
     options = None if traced else compiler_options(b0)
-    if _export.export_dir() is not None:
-        out = _export.call("radiosity_solve", _solve_packed, args,
-                           _export.source_digest("radiosity/", "kernels/"),
+    if _executables.store_dir() is not None:
+        out = _executables.call("radiosity_solve", _solve_packed, args,
+                           _executables.source_digest("radiosity/", "kernels/"),
                            compiler_options=options)
         if out is not None:
             stats = {k[6:]: v for k, v in out.items() if k.startswith("stats.")}
@@ -527,8 +527,8 @@ def compiler_options(b0) -> dict | None:
 
 
 def _solve_packed(*args) -> dict:
-    """:func:`_solve_body` with its outputs as one flat dict of arrays (what ``jax.export``
-    serialises: lineax's RESULTS travels as its integer code)."""
+    """:func:`_solve_body` with its outputs as one flat dict of arrays (what
+    :mod:`lumijax._executables` stores: lineax's RESULTS travels as its integer code)."""
     b, iterations, residual, result, escaped, stats = _solve_body(*args)
     return {"b": b, "iterations": iterations, "residual": residual, "result": result._value,
             "escaped": escaped, **{f"stats.{k}": jnp.asarray(v) for k, v in stats.items()}}

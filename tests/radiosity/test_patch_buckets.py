@@ -64,17 +64,17 @@ def test_a_small_solve_asks_for_the_unoptimised_program_and_a_traced_one_does_no
     # on), and never a solve inside the caller's trace, where XLA refuses them
     import jax
 
-    from lumijax import _export
+    from lumijax import _executables
     from lumijax.radiosity._solve import SMALL_SOLVE_OPTIONS
 
     p, _, op = cube_room
-    asked, real = [], _export.call
+    asked, real = [], _executables.call
 
     def spy(*args, **kw):
         asked.append(kw.get("compiler_options"))
         return real(*args, **kw)
 
-    monkeypatch.setattr(_export, "call", spy)
+    monkeypatch.setattr(_executables, "call", spy)
     rho, b0 = jnp.full(p.n, 0.5), jnp.ones((p.n, 1))
     plain = solve_radiosity(op, rho, b0)
     assert asked == [SMALL_SOLVE_OPTIONS]
