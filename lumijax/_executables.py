@@ -49,6 +49,7 @@ _lock = threading.Lock()
 _warned: set[str] = set()
 _sources: dict[tuple[str, ...], str] = {}
 _loaded: dict[str, object] = {}  # key → jax.stages.Compiled, this process's programs
+_key_locks: dict[str, threading.Lock] = {}
 _machine: list[str] = []
 
 
@@ -256,25 +257,37 @@ def call(name: str, fn: Callable, args: tuple, code: str,
         return None
     with _lock:
         compiled = _loaded.get(key)
+        if compiled is None:  # one thread reads or compiles a key, the others wait for it
+            key_lock = _key_locks.setdefault(key, threading.Lock())
+    if compiled is None:
+        with key_lock:
+            return _load_or_compile(name, fn, static, treedef, leaves, compiler_options,
+                                    folder, key)
+    return compiled(*leaves)
+
+
+def _load_or_compile(name, fn, static, treedef, leaves, options, folder: Path, key: str):
+    """``fn`` at ``leaves`` by the program in memory, in the store, or compiled now."""
+    with _lock:
+        compiled = _loaded.get(key)
+    if compiled is not None:  # another thread got it while this one waited
+        return compiled(*leaves)
     file = folder / f"{name}-{key}{SUFFIX}"
-    if compiled is None:
-        compiled = _read(file, len(leaves))
-        if compiled is not None:
-            try:
-                out = compiled(*leaves)
-            except Exception as e:  # loaded, yet it does not run: rebuilt below
-                _warn("call", f"stored program {file} could not be called "
-                      f"({type(e).__name__}: {e}): rebuilt")
-                compiled = None
-                _drop(file)
-            else:
-                with _lock:
-                    _loaded[key] = compiled
-                return out
-    if compiled is None:
-        compiled = _compile(name, fn, static, treedef, leaves, compiler_options, folder, file)
-        with _lock:
-            _loaded[key] = compiled
+    compiled = _read(file, len(leaves))
+    if compiled is not None:
+        try:
+            out = compiled(*leaves)
+        except Exception as e:  # loaded, yet it does not run: rebuilt below
+            _warn("call", f"stored program {file} could not be called "
+                  f"({type(e).__name__}: {e}): rebuilt")
+            _drop(file)
+        else:
+            with _lock:
+                _loaded[key] = compiled
+            return out
+    compiled = _compile(name, fn, static, treedef, leaves, options, folder, file)
+    with _lock:
+        _loaded[key] = compiled
     return compiled(*leaves)
 
 
