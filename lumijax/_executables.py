@@ -307,6 +307,7 @@ def _compile(name, fn, static, treedef, leaves, options, folder: Path, file: Pat
         out_spec.append(_spec(out))
         return out
 
+    flat.__name__ = flat.__qualname__ = name  # JAX's events and profiles name the program
     _listen()
     lowered = jax.jit(flat, compiler_options=options).lower(*leaves)
     _hits.n = 0

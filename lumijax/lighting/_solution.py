@@ -48,10 +48,18 @@ __all__ = ["LightingSolution", "Level", "float64_scope"]
 _T = TypeVar("_T")
 
 
-@_executables.stored("corrected_matmul", "lighting/_solution.py", "radiosity/", "kernels/")
 def _corrected_matmul(transport, b):
     """``F' b`` with the solve's row correction (:meth:`LightingSolution.patch_illuminance`):
-    one compiled program where its eager ops compiled a dozen in every process."""
+    one compiled program where its eager ops compiled a dozen in every process. The operator's
+    build statistics (a static field) are dropped first: they differ by run and would key a
+    new program each time."""
+    from ..radiosity._operator import Info
+
+    return _corrected_matmul_kernel(dataclasses.replace(transport, info=Info()), b)
+
+
+@_executables.stored("corrected_matmul", "lighting/_solution.py", "radiosity/", "kernels/")
+def _corrected_matmul_kernel(transport, b):
     from ..radiosity import row_correction
 
     c, _ = row_correction(transport.row_sums())
