@@ -76,7 +76,7 @@ def test_a_stored_solve_is_not_traced_again_and_gives_the_same_bits(store, cube_
     assert len(files) == 1 and files[0].read_bytes().startswith(_executables.MAGIC)
     forget()
     again, traced = traces(lambda: solve_radiosity(op, rho, b0))
-    assert "flat" not in traced and "_solve_body" not in traced  # deserialised, not traced
+    assert "radiosity_solve" not in traced and "_solve_body" not in traced  # loaded, not traced
     assert np.array_equal(np.asarray(first.value), np.asarray(again.value))
     assert int(first.iterations) == int(again.iterations)
     assert bool(again.stats["closed"]) and again.result == first.result
@@ -198,5 +198,5 @@ def test_a_new_process_loads_the_stored_solve_and_gives_the_same_bits(tmp_path):
         assert proc.returncode == 0, proc.stderr[-3000:]
         runs.append(json.loads(proc.stdout.strip().splitlines()[-1]))
     assert list(tmp_path.rglob(f"radiosity_solve-*{_executables.SUFFIX}"))
-    assert "flat" in runs[0]["traced"] and "flat" not in runs[1]["traced"]
+    assert "radiosity_solve" in runs[0]["traced"] and "radiosity_solve" not in runs[1]["traced"]
     assert runs[0]["b"] == runs[1]["b"]
