@@ -341,26 +341,34 @@ def _listen() -> None:
             _listen.on = True  # type: ignore[attr-defined]
 
 
-def stored(name: str, *modules: str, static_argnums: int | tuple[int, ...] = ()):
+def stored(name: str, *modules: str, static_argnums: int | tuple[int, ...] = (),
+           options: Callable[..., dict | None] | None = None):
     """Decorator: ``fn`` jitted, its executables kept across processes through :func:`call`
     while the compilation cache is on (``modules``: what it traces, for
     :func:`source_digest`). Inside a trace, or with the cache off, the plain ``jax.jit`` of
     ``fn``. Its array arguments are its inputs, everything else is static (as
-    ``equinox.filter_jit``; ``static_argnums`` is for the plain path's ``jax.jit``)."""
+    ``equinox.filter_jit``; ``static_argnums`` is for the plain path's ``jax.jit``).
+    ``options(*args)`` gives XLA's options for a call (None: XLA's defaults)."""
     import functools
 
     def wrap(fn: Callable) -> Callable:
         import jax
 
-        jitted = jax.jit(fn, static_argnums=static_argnums)
+        jitted: dict[str, Callable] = {}
 
         @functools.wraps(fn)
         def run(*args):
+            opts = None if options is None else options(*args)
             if store_dir() is not None:
-                out = call(name, fn, args, source_digest(*modules))
+                out = call(name, fn, args, source_digest(*modules), compiler_options=opts)
                 if out is not None:
                     return out
-            return jitted(*args)
+            key = json.dumps(opts, sort_keys=True)
+            plain = jitted.get(key)
+            if plain is None:
+                plain = jitted.setdefault(key, jax.jit(fn, static_argnums=static_argnums,
+                                                       compiler_options=opts))
+            return plain(*args)
 
         return run
 
