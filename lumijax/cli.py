@@ -186,7 +186,8 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
     from .config import load_config
     from .report._write import ResultSet
 
-    marks: dict[str, float] = {}  # wall time (s) of this run's steps (--timings)
+    # wall time (s) of this run's steps (--timings); the config's schema (pydantic) first
+    marks: dict[str, float] = {"import_config": time.perf_counter() - t0}
     # The folder is locked from the start (a second run into it stops at once, not after its
     # compute), and every file, the report included, is staged and swapped in as one set.
     with ResultSet(out) as rs:
@@ -364,12 +365,15 @@ def _timings_table(timing: dict, marks: dict, startup: float | None, run_s: floa
     rows: list[tuple[str, float]] = []
     if startup is not None:
         rows.append(("start-up + import", startup))
+    if "import_config" in marks:
+        rows.append(("import the config schema", marks["import_config"]))
     if "import" in marks:
         rows.append(("import JAX and the compute", marks["import"]))
     for label, keys in TIMING_ROWS:
         if any(k in timing for k in keys):
             rows.append((label, sum(timing.get(k, 0.0) for k in keys)))
-    staged = sum(v for label, v in rows[(startup is not None) + ("import" in marks):]
+    staged = sum(v for label, v in rows[(startup is not None) + ("import" in marks)
+                                        + ("import_config" in marks):]
                  if label not in ("config", "scene"))
     rows.append(("compute, rest (grids, glare, compliance)", marks["compute"] - staged))
     if "store" in marks:
