@@ -41,7 +41,12 @@ import warnings
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["MAGIC", "SUFFIX", "call", "store_dir", "source_digest", "stored"]
+__all__ = ["MAGIC", "SUFFIX", "UNOPTIMISED", "call", "store_dir", "source_digest", "stored"]
+
+#: XLA's options for a program that runs about once per process and is small: LLVM's
+#: optimisation passes off (compiling then costs more than running; radiosity/_solve.py,
+#: "Small solves"). The small solve, the glare terms and the patch output's product use it.
+UNOPTIMISED = {"xla_backend_optimization_level": 0}
 
 MAGIC = b"lumijax-executable-1\n"
 SUFFIX = ".ljxc"

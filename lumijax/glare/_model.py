@@ -38,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .. import _executables
 from .._jit_cache import to_device
 from ..errors import GeometryError, LumijaxWarning
 from ..scene._frames import aim_rotation
@@ -307,7 +308,7 @@ _contributions = eqx.filter_jit(_terms_of)
 #: fittings: compile 3.9 → 2.4 s, run 0.9 → 1.2 ms).
 _SMALL_TERMS = 1 << 16
 _contributions_small = eqx.filter_jit(  # type: ignore[call-overload]
-    _terms_of, compiler_options={"xla_backend_optimization_level": 0})
+    _terms_of, compiler_options=_executables.UNOPTIMISED)
 
 
 def _veil(e_eye, angle_deg):

@@ -61,9 +61,9 @@ def _corrected_matmul(transport, b):
 def _small(transport, b) -> dict | None:
     """XLA's options for the product: unoptimised when as small as a small solve (it runs once
     per process; optimised, the demo's took 1.7 s to compile, 0.9 s without)."""
-    from ..radiosity._solve import SMALL_SOLVE, SMALL_SOLVE_OPTIONS
+    from ..radiosity._solve import SMALL_SOLVE
 
-    return SMALL_SOLVE_OPTIONS if transport.n_patches * b.shape[-1] <= SMALL_SOLVE else None
+    return _executables.UNOPTIMISED if transport.n_patches * b.shape[-1] <= SMALL_SOLVE else None
 
 
 @_executables.stored("corrected_matmul", "lighting/_solution.py", "radiosity/", "kernels/",

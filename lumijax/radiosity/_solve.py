@@ -574,7 +574,7 @@ SMALL_SOLVE = 1 << 16
 """Most values (padded patches × columns) of a solve compiled with
 :data:`SMALL_SOLVE_OPTIONS` (module docstring, "Small solves")."""
 
-SMALL_SOLVE_OPTIONS = {"xla_backend_optimization_level": 0}
+SMALL_SOLVE_OPTIONS = _executables.UNOPTIMISED
 """XLA's options for a small solve: LLVM's optimisation passes off."""
 
 _solve_jit = eqx.filter_jit(_solve_body)
