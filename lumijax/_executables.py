@@ -23,9 +23,11 @@ tolerances) and every array's shape and dtype. An argument on several devices, o
 value whose repr names an address, is not stored (the call is the plain one).
 
 The folder is trusted as the code is: an executable is machine code, as in JAX's own cache.
-Bad input: an entry that fails its digest or cannot be loaded (truncated, corrupted, foreign)
-is ignored with a :class:`~lumijax.errors.LumijaxWarning` and rebuilt; a folder that cannot be
-written gives one warning and the plain call. Nothing here raises on a cache problem.
+Bad input: an entry that fails its digest, cannot be loaded (truncated, corrupted, foreign) or
+loads but does not run is warned about (:class:`~lumijax.errors.LumijaxWarning`), removed and
+compiled again (stored again unless JAX answered the compile from its own cache: see
+:func:`_compile`); a folder that cannot be written gives one warning and the plain call.
+Nothing here raises on a cache problem.
 Clearing: delete the folder (any edit of the traced code or an upgrade changes every key, and
 old entries are only read by their own key).
 """
