@@ -32,6 +32,8 @@ import jax.numpy as jnp
 import lineax as lx
 import numpy as np
 
+from ._progress import report
+
 __all__ = ["ColumnBiCGStab", "ColumnScaled", "Refinement", "column_max"]
 
 
@@ -104,6 +106,7 @@ class ColumnBiCGStab(_Transposable):
     atol: float
     max_steps: int
     stall: int = 20
+    report: bool = False  # the worst active column's best residual to ``_progress`` a step
 
     def compute(self, state, vector, options: dict[str, Any]):
         op = state
@@ -149,6 +152,9 @@ class ColumnBiCGStab(_Transposable):
             bad = bad | (since >= self.stall)
             step = active & ~bad
             keep = lambda new, old: jnp.where(step, new, old)  # noqa: E731
+            if self.report:
+                left = step & (norm > tol)
+                report(jnp.max(jnp.where(left, jnp.minimum(norm, c["best"]), 0.0)), tol)
             return dict(
                 x=keep(x_new, c["x"]), r=keep(r_new, r), p=keep(p, c["p"]), v=keep(v, c["v"]),
                 rho=keep(rho, c["rho"]), alpha=keep(alpha, c["alpha"]),

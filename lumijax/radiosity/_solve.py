@@ -60,6 +60,7 @@ derivative of each is lineax's, as before.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 
@@ -73,6 +74,7 @@ from jaxtyping import Array, Float, Int
 from .. import _executables
 from .._jit_cache import to_device
 from ..errors import SolveError
+from . import _progress
 from ._krylov import column_max
 from ._operator import Info, ReflectionOperator, TransportOperator
 from ._solvers import (
@@ -253,7 +255,10 @@ def solve_radiosity(
         fit in memory (``_estimate.solve_column_batch``).
     progress
         Called as ``progress(done, total)`` in columns of ``B₀`` after each batch (copies of a
-        distinct column counted with it; None: nothing).
+        distinct column counted with it; None: nothing), and within a batch of at least
+        :data:`REPORTED_SOLVE` values as its residual falls (``done`` the batch's share of
+        columns times the fraction of the log residual covered, ``_progress``; GMRES only
+        after each batch).
     """
     solver = radiosity_solver(method if method is not None else solver)
     check_reflectance(transport, rho)
@@ -303,6 +308,8 @@ def solve_radiosity(
         count = len(inverse)
         told = None if progress is None else (  # in the caller's columns, copies included
             lambda done, total: progress(count * done // total, count))
+        if told is not None and patch_bucket(n) * min(batch, len(first)) >= REPORTED_SOLVE:
+            args = (solver.reporting(), *args[1:])  # progress from within each batch
         b_u, iterations, residual, result, escaped_u, stats = _batched_solve(
             transport, rho_u, b0_h.reshape(n, -1)[:, first], tau_u, partner, args, batch,
             told, np)
@@ -352,9 +359,12 @@ def _batched_solve(transport, rho, b0, tau, partner, args, batch: int, progress,
     for k in range(n_batches):
         lo, hi = k * size, min((k + 1) * size, count)
         cut = slice(lo, lo + size)
-        b, iterations, residual, result, escaped, stats = _padded_solve(
-            transport, rho_p[:, cut], b0_p[:, cut], solver, rtol, max_steps, correct_rows,
-            None if tau_p is None else tau_p[:, cut], partner)
+        within = contextlib.nullcontext() if progress is None or not solver.reports else (
+            _progress.listening(lambda f, lo=lo, hi=hi: progress(lo + int(f * (hi - lo)), count)))
+        with within:
+            b, iterations, residual, result, escaped, stats = _padded_solve(
+                transport, rho_p[:, cut], b0_p[:, cut], solver, rtol, max_steps, correct_rows,
+                None if tau_p is None else tau_p[:, cut], partner)
         m = hi - lo
 
         def real(x, m=m):  # the batch's own columns (on the host: no eager kernel)
@@ -507,7 +517,7 @@ def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, 
     # XLA takes options for a whole program only: inside a trace the caller's program decides
     traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(args))
     options = None if traced else compiler_options(b0)
-    if _executables.store_dir() is not None:
+    if _executables.store_dir() is not None and not solver.reports:  # callbacks: not stored
         out = _executables.call("radiosity_solve", _solve_packed, args,
                            _executables.source_digest("radiosity/", "kernels/"),
                            compiler_options=options)
@@ -573,6 +583,12 @@ def _solve_body(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=N
 SMALL_SOLVE = 1 << 16
 """Most values (padded patches × columns) of a solve compiled with
 :data:`SMALL_SOLVE_OPTIONS` (module docstring, "Small solves")."""
+
+REPORTED_SOLVE = 1 << 22
+"""Fewest values (padded patches × columns of a batch) of a solve whose solver reports its
+steps when the caller asks for progress (``_progress``; ≈ 10⁵ patches × 40 columns, about a
+second a product here): a smaller one is over before a report could help, and keeps its
+stored executable (a program with host callbacks is not stored)."""
 
 SMALL_SOLVE_OPTIONS = _executables.UNOPTIMISED
 """XLA's options for a small solve: LLVM's optimisation passes off."""

@@ -14,6 +14,7 @@ Measured products, time and true residuals of every method on the regression roo
 from __future__ import annotations
 
 import abc
+import dataclasses
 from typing import ClassVar
 
 import equinox as eqx
@@ -25,6 +26,7 @@ from .._registry import Registry
 from ..config._schema import RadiosityMethodName
 from ._krylov import ColumnBiCGStab, ColumnScaled, Refinement
 from ._operator import ReflectionOperator
+from ._progress import report
 
 __all__ = [
     "AbstractRadiositySolver",
@@ -49,6 +51,17 @@ class AbstractRadiositySolver(eqx.Module):
     def run(self, op: ReflectionOperator, b, atol: float, max_products: int):
         """Solve for ``x``; ``b`` has unit maximum per column and ``atol`` is the max-norm
         residual to reach per column. Returns ``(x, products, result, stats)``."""
+
+    def reporting(self) -> AbstractRadiositySolver:
+        """This solver telling :mod:`._progress` its worst residual after every step (the same
+        arithmetic, one host callback a step); a method without such steps (GMRES: lineax's
+        loop) returns itself."""
+        return self
+
+    @property
+    def reports(self) -> bool:
+        """Whether :meth:`run` reports its steps (a program with host callbacks)."""
+        return False
 
 
 class AbstractKrylovSolver(AbstractRadiositySolver):
@@ -78,9 +91,18 @@ class BiCGStab(AbstractKrylovSolver):
     products on a good day; stops with ``RESULTS.breakdown`` on a bad one."""
 
     stall: int = 20
+    report: bool = False
 
     def linear_solver(self, atol, max_products):
-        return ColumnBiCGStab(atol=atol, max_steps=max(max_products // 2, 1), stall=self.stall)
+        return ColumnBiCGStab(atol=atol, max_steps=max(max_products // 2, 1), stall=self.stall,
+                              report=self.report)
+
+    def reporting(self):
+        return dataclasses.replace(self, report=True)
+
+    @property
+    def reports(self) -> bool:
+        return self.report
 
     def products(self, stats):
         return stats["products"]
@@ -121,9 +143,26 @@ class Refined(AbstractKrylovSolver):
     def products(self, stats):
         return stats["products"]
 
+    def reporting(self):
+        return dataclasses.replace(self, inner=self.inner.reporting(),
+                                   fallback=self.fallback.reporting())
+
+    @property
+    def reports(self) -> bool:
+        return self.inner.reports or self.fallback.reports
+
 
 class Jacobi(AbstractRadiositySolver):
     """``x ← b + K x``: products grow like 1/(1 − ρ). Forward only, for comparison."""
+
+    report: bool = False
+
+    def reporting(self):
+        return dataclasses.replace(self, report=True)
+
+    @property
+    def reports(self) -> bool:
+        return self.report
 
     def run(self, op, b, atol, max_products):
         def cond(c):
@@ -133,7 +172,10 @@ class Jacobi(AbstractRadiositySolver):
         def body(c):
             x, _, k = c
             new = b + op.mv(x)
-            return new, jnp.max(jnp.abs(new - x)), k + 1
+            r = jnp.max(jnp.abs(new - x))
+            if self.report:
+                report(r, atol)
+            return new, r, k + 1
 
         x, r, k = jax.lax.while_loop(cond, body, (b, jnp.asarray(jnp.inf, b.dtype), 0))
         result = lx.RESULTS.where(r > atol, lx.RESULTS.max_steps_reached,
@@ -150,6 +192,15 @@ class Southwell(AbstractRadiositySolver):
     part to x and to U, and clears the block's U. Stops when the unshot flux is below ``atol``
     of the initial flux; ``max_products`` counts full sweeps (one shot per block).
     """
+
+    report: bool = False
+
+    def reporting(self):
+        return dataclasses.replace(self, report=True)
+
+    @property
+    def reports(self) -> bool:
+        return self.report
 
     def run(self, op, b, atol, max_products):
         tr = op.transport
@@ -172,7 +223,10 @@ class Southwell(AbstractRadiositySolver):
             blk = jnp.argmax(flux(u))
             shoot = jnp.where((block_of == blk).reshape(mask_shape), u, 0.0)
             dx = op.rho * tr.matmul_from_block(shoot, blk)
-            return x + dx, u - shoot + dx, k + 1
+            u = u - shoot + dx
+            if self.report:
+                report(jnp.sum(flux(u)) / total0, atol)
+            return x + dx, u, k + 1
 
         x, u, k = jax.lax.while_loop(cond, body, (b, b, 0))
         left = jnp.sum(flux(u)) > atol * total0

@@ -1,0 +1,80 @@
+"""Progress from within a solve batch (``radiosity._progress``): the fraction a solver reports is
+the log residual's, it changes no bit of the answer, and it reaches the caller's bar."""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from lumijax.radiosity import _progress, _solve, solve_radiosity
+from lumijax.radiosity._solvers import Jacobi
+
+
+def test_the_fraction_is_the_log_residual_of_a_furnace():
+    # A closed cube of uniform ρ lit uniformly: Jacobi's k-th change is ρ^k (every row of F
+    # sums to 1, to the row correction's rounding), so the fraction after step k is
+    # k·log ρ / log tol: even steps, the evenness a time-left estimate relies on.
+    import trimesh
+
+    from .conftest import room
+
+    p, _, op = room(trimesh.creation.box(extents=(1.0, 1.0, 1.0)), 0.5)
+    rho, tol = 0.5, 1e-4
+    seen = []
+    with _progress.listening(seen.append) as listens:
+        assert listens
+        sol = solve_radiosity(op, jnp.full(p.n, rho, jnp.float32),
+                              jnp.full((p.n, 1), 3.0, jnp.float32), solver=Jacobi().reporting(),
+                              rtol=tol)
+    steps = int(sol.iterations)
+    assert steps == math.ceil(math.log(tol) / math.log(rho))  # 14: 0.5¹⁴ < 1e-4 < 0.5¹³
+    want = [min(k * math.log(rho) / math.log(tol), 1.0) for k in range(1, steps + 1)]
+    np.testing.assert_allclose(seen, want, atol=2e-3)
+    assert seen[-1] == 1.0
+
+
+def test_the_fraction_at_the_edges():
+    assert _progress.converged_fraction(1.0, 1e-4) == 0.0
+    assert _progress.converged_fraction(1e-2, 1e-4) == pytest.approx(0.5)
+    assert _progress.converged_fraction(1e-9, 1e-4) == 1.0
+    assert _progress.converged_fraction(0.0, 1e-4) == 1.0
+    assert _progress.converged_fraction(float("nan"), 1e-4) == 0.0
+    assert _progress.converged_fraction(3.0, 1e-4) == 0.0  # a residual that grew: no progress
+
+
+def test_one_listener_at_a_time():
+    outer, inner = [], []
+    with _progress.listening(outer.append) as first:
+        with _progress.listening(inner.append) as second:
+            _progress._tell(np.float32(1e-2), np.float32(1e-4))
+    _progress._tell(np.float32(1e-3), np.float32(1e-4))  # nobody listens: dropped
+    assert (first, second) == (True, False)
+    assert outer == [pytest.approx(0.5)] and inner == []
+
+
+@pytest.mark.parametrize("method", ["refined", "southwell", "gmres"])
+def test_a_large_batch_reports_within_and_keeps_its_bits(cube_room, monkeypatch, method):
+    p, _, op = cube_room
+    rng = np.random.default_rng(1)
+    rho = jnp.asarray(rng.uniform(0.3, 0.8, p.n), jnp.float32)
+    b0 = jnp.asarray(rng.uniform(1.0, 100.0, (p.n, 6)), jnp.float32)  # six distinct columns
+    seen = []
+    quiet = solve_radiosity(op, rho, b0, solver=method, column_batch=3,
+                            progress=lambda d, t: seen.append((d, t)))
+    assert seen == [(3, 6), (6, 6)]  # a small solve: a report at the end of each batch
+    monkeypatch.setattr(_solve, "REPORTED_SOLVE", 1)
+    seen.clear()
+    told = solve_radiosity(op, rho, b0, solver=method, column_batch=3,
+                           progress=lambda d, t: seen.append((d, t)))
+    np.testing.assert_array_equal(np.asarray(told.value), np.asarray(quiet.value))
+    done = [d for d, _ in seen]
+    assert {t for _, t in seen} == {6} and done == sorted(done) and done[-1] == 6
+    assert 3 in done  # the first batch's end
+    within = [d for d in done if d not in (3, 6)]
+    if method == "gmres":  # lineax's own loop: reports at the batches' ends only
+        assert within == []
+    else:
+        assert len(within) >= 2  # steps of each batch of three columns (1, 2 and 4, 5)
