@@ -130,6 +130,8 @@ def main(argv=None) -> None:
               f"(+{(sampler.peak - base) / 2**30:.2f}) {note(out)}", flush=True)
         if args.progress and events:
             print(f"    {_progress_truth(events, t + dt)}", flush=True)
+            print(f"    reports (s into the stage: done/total): {_timeline(events, t)}",
+                  flush=True)
         if args.stop_after == name:
             _table(rows, c, st)
             sys.exit(0)
@@ -252,6 +254,13 @@ def _progress_truth(events, end: float) -> str:
             out.append(f"{frac:.0%}: {left:.1f} s left shown, {end - at[0]:.1f} s taken")
     return ("time left " + "; ".join(out)) if out else (
         f"time left: {len(events)} report(s), too few to check")
+
+
+def _timeline(events, start: float, most: int = 40) -> str:
+    """The stage's progress reports as ``time:done/total``, at most ``most`` of them evenly
+    picked (the first and the last kept)."""
+    pick = np.unique(np.linspace(0, len(events) - 1, min(most, len(events))).round().astype(int))
+    return " ".join(f"{events[k][0] - start:.1f}:{events[k][1]}/{events[k][2]}" for k in pick)
 
 
 def _table(rows, c, st) -> None:

@@ -154,7 +154,10 @@ class ColumnBiCGStab(_Transposable):
             keep = lambda new, old: jnp.where(step, new, old)  # noqa: E731
             if self.report:
                 left = step & (norm > tol)
-                report(jnp.max(jnp.where(left, jnp.minimum(norm, c["best"]), 0.0)), tol)
+                # after convergence: the refinement's true residual and the solve's own,
+                # two products, one step
+                report(jnp.max(jnp.where(left, jnp.minimum(norm, c["best"]), 0.0)), tol,
+                       c["k"] + 1, tail=1)
             return dict(
                 x=keep(x_new, c["x"]), r=keep(r_new, r), p=keep(p, c["p"]), v=keep(v, c["v"]),
                 rho=keep(rho, c["rho"]), alpha=keep(alpha, c["alpha"]),

@@ -2,12 +2,18 @@
 
 A large solve batch runs as one XLA program for minutes (the 10⁶-patch courtyard's: 200 s), so
 a progress report after each batch says nothing in between. A solver built with
-``reporting()`` (``_solvers.py``) calls :func:`report` once per step with its worst column's
-residual; the host turns that into the fraction of the way from the start to the tolerance on
-a log scale. The solvers see columns scaled to unit maximum, so every solve starts at a
-residual of 1, and a Krylov or Jacobi solve converges linearly: equal steps of the log residual
-take equal time, which is what makes a time left computed from the fraction honest. The
-fraction never moves back (BiCGStab's residual is not monotonic).
+``reporting()`` (``_solvers.py``) calls :func:`report` after every step with its worst
+column's residual, the steps so far and the steps' worth of work still due once it has
+converged (the final true residual's products). The host turns that into the fraction of the
+batch done:
+
+* the solvers see columns scaled to unit maximum, so every solve starts at a residual of 1,
+  and ``f = log r / log tol`` is how far the residual has come (:func:`converged_fraction`);
+* a Krylov or Jacobi solve converges linearly, so k steps that came ``f`` of the way predict
+  ``k / f`` steps in all, and the batch is ``k / (k / f + tail)`` done
+  (:func:`batch_fraction`): equal steps take equal time, so a time left computed from it holds.
+
+The fraction told never moves back (BiCGStab's residual is not monotonic).
 
 The listener is one per process (:func:`listening`); the callback that reaches it is a
 ``jax.debug.callback`` of this module's :func:`_tell`, the same function in every program, so
@@ -24,7 +30,7 @@ from collections.abc import Callable, Iterator
 import jax
 import numpy as np
 
-__all__ = ["report", "listening", "converged_fraction"]
+__all__ = ["report", "listening", "converged_fraction", "batch_fraction"]
 
 _lock = threading.Lock()
 _listener: list = [None, 0.0]  # (called with a fraction 0…1, the fraction told so far)
@@ -40,17 +46,29 @@ def converged_fraction(residual: float, tol: float) -> float:
     return min(max(math.log(residual) / math.log(tol), 0.0), 1.0)
 
 
-def report(residual, tol) -> None:
-    """In a traced solver step: tell the listener (if any) this step's worst residual."""
-    jax.debug.callback(_tell, residual, tol)
+def batch_fraction(residual: float, tol: float, steps: int, tail: float) -> float:
+    """The share of a solve done after ``steps`` steps that brought the residual from 1 to
+    ``residual``, with ``tail`` steps' worth of work due after convergence (module
+    docstring)."""
+    f = converged_fraction(residual, tol)
+    if steps <= 0 or f <= 0.0:
+        return 0.0
+    return steps / (steps / f + max(tail, 0.0))
 
 
-def _tell(residual, tol) -> None:
+def report(residual, tol, steps, tail: float) -> None:
+    """In a traced solver step: tell the listener (if any) this step's worst residual, the
+    steps taken (traced) and the steps' worth of work due after convergence."""
+    jax.debug.callback(_tell, residual, tol, steps, np.float32(tail))
+
+
+def _tell(residual, tol, steps, tail) -> None:
     with _lock:
         fn, told = _listener
         if fn is None:
             return
-        f = converged_fraction(float(np.max(residual)), float(np.max(tol)))
+        f = batch_fraction(float(np.max(residual)), float(np.max(tol)), int(np.max(steps)),
+                           float(tail))
         if f <= told:
             return
         _listener[1] = f

@@ -173,8 +173,8 @@ class Jacobi(AbstractRadiositySolver):
             x, _, k = c
             new = b + op.mv(x)
             r = jnp.max(jnp.abs(new - x))
-            if self.report:
-                report(r, atol)
+            if self.report:  # the solve's final residual is one more product
+                report(r, atol, k + 1, tail=1)
             return new, r, k + 1
 
         x, r, k = jax.lax.while_loop(cond, body, (b, jnp.asarray(jnp.inf, b.dtype), 0))
@@ -224,8 +224,8 @@ class Southwell(AbstractRadiositySolver):
             shoot = jnp.where((block_of == blk).reshape(mask_shape), u, 0.0)
             dx = op.rho * tr.matmul_from_block(shoot, blk)
             u = u - shoot + dx
-            if self.report:
-                report(jnp.sum(flux(u)) / total0, atol)
+            if self.report:  # a shot is a block's column of F: the final residual, nb shots
+                report(jnp.sum(flux(u)) / total0, atol, k + 1, tail=nb)
             return x + dx, u, k + 1
 
         x, u, k = jax.lax.while_loop(cond, body, (b, b, 0))

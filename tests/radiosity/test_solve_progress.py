@@ -15,8 +15,9 @@ from lumijax.radiosity._solvers import Jacobi
 
 def test_the_fraction_is_the_log_residual_of_a_furnace():
     # A closed cube of uniform ρ lit uniformly: Jacobi's k-th change is ρ^k (every row of F
-    # sums to 1, to the row correction's rounding), so the fraction after step k is
-    # k·log ρ / log tol: even steps, the evenness a time-left estimate relies on.
+    # sums to 1, to the row correction's rounding), so the residual has come f = k·log ρ/log tol
+    # of the way after step k, and with the final residual's one product still due the batch
+    # is k / (k/f + 1) done: even steps, the evenness a time-left estimate relies on.
     import trimesh
 
     from .conftest import room
@@ -31,9 +32,11 @@ def test_the_fraction_is_the_log_residual_of_a_furnace():
                               rtol=tol)
     steps = int(sol.iterations)
     assert steps == math.ceil(math.log(tol) / math.log(rho))  # 14: 0.5¹⁴ < 1e-4 < 0.5¹³
-    want = [min(k * math.log(rho) / math.log(tol), 1.0) for k in range(1, steps + 1)]
+    f = [min(k * math.log(rho) / math.log(tol), 1.0) for k in range(1, steps + 1)]
+    want = [k / (k / fk + 1) for k, fk in zip(range(1, steps + 1), f, strict=True)]
     np.testing.assert_allclose(seen, want, atol=2e-3)
-    assert seen[-1] == 1.0
+    assert np.ptp(np.diff(seen[:-1])) < 2e-3  # equal steps up to the last
+    assert seen[-1] == pytest.approx(steps / (steps + 1))
 
 
 def test_the_fraction_at_the_edges():
@@ -43,16 +46,21 @@ def test_the_fraction_at_the_edges():
     assert _progress.converged_fraction(0.0, 1e-4) == 1.0
     assert _progress.converged_fraction(float("nan"), 1e-4) == 0.0
     assert _progress.converged_fraction(3.0, 1e-4) == 0.0  # a residual that grew: no progress
+    # two steps halfway there: four in all, and one more step's work due after them
+    assert _progress.batch_fraction(1e-2, 1e-4, 2, 1.0) == pytest.approx(2 / 5)
+    assert _progress.batch_fraction(1e-5, 1e-4, 4, 1.0) == pytest.approx(4 / 5)
+    assert _progress.batch_fraction(1.0, 1e-4, 3, 1.0) == 0.0
 
 
 def test_one_listener_at_a_time():
     outer, inner = [], []
     with _progress.listening(outer.append) as first:
         with _progress.listening(inner.append) as second:
-            _progress._tell(np.float32(1e-2), np.float32(1e-4))
-    _progress._tell(np.float32(1e-3), np.float32(1e-4))  # nobody listens: dropped
+            _progress._tell(np.float32(1e-2), np.float32(1e-4), np.int32(2), np.float32(0))
+            _progress._tell(np.float32(2e-2), np.float32(1e-4), np.int32(3), np.float32(0))
+    _progress._tell(np.float32(1e-3), np.float32(1e-4), np.int32(3), np.float32(0))  # dropped
     assert (first, second) == (True, False)
-    assert outer == [pytest.approx(0.5)] and inner == []
+    assert outer == [pytest.approx(0.5)] and inner == []  # and never back
 
 
 @pytest.mark.parametrize("method", ["refined", "southwell", "gmres"])
