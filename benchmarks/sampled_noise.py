@@ -1,0 +1,151 @@
+"""Where the sampled transport's per-patch noise comes from, and what reduces it (issue 17).
+
+    python benchmarks/sampled_noise.py [--patch-size 0.35] [--rays 256 1024 4096]
+
+The room of ``tests/radiosity/test_sampled.py``: 4 × 3 × 2.8 m, a desk and a partition, a
+downlight 0.2 m under the ceiling lighting the upward faces (a peaky first bounce), ρ 0.3 up
+and 0.7 elsewhere. The reference is the block operator on the same mesh (exact contour
+integrals, visibility by rays: docs/radiosity.md). For each number of rays a patch it prints
+the inter-reflected irradiance's mean and RMS per patch against it (area-weighted, relative to
+the field's RMS, as docs/radiosity.md, "Two levels") for
+
+* ``sampled``: the sampled operator as built;
+* ``reciprocal``: ``(G + Gᵀ)/2`` (``G = A F``: the two estimates of each pair averaged), each
+  row rescaled to the sampled row's sum so that a closed room stays closed;
+* ``balanced``: the same made symmetric *and* of those row sums (``s_i s_j S_ij``, symmetric
+  Sinkhorn scaling);
+
+and, once, where the error of one product ``F̂ B − F B`` (B the reference's radiosity) comes
+from: pairs nearer than r against the rest — what an exact near field could remove.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+
+def furnished_room():
+    import trimesh
+
+    m = trimesh.creation.box(extents=(4.0, 3.0, 2.8))
+    m.invert()
+    desk = trimesh.creation.box(extents=(1.2, 0.8, 0.05))
+    desk.apply_translation([0.5, 0.3, -0.65])
+    wall = trimesh.creation.box(extents=(0.05, 1.5, 1.4))
+    wall.apply_translation([-0.8, -0.4, -0.7])
+    return np.concatenate([m.triangles, desk.triangles, wall.triangles])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--patch-size", type=float, default=0.35)
+    ap.add_argument("--rays", type=int, nargs="+", default=[256, 1024, 4096])
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+
+    import jax.numpy as jnp
+    import scipy.sparse as sp
+
+    from lumijax.radiosity import (
+        SampledSettings,
+        build_operator,
+        build_sampled,
+        mesh_patches,
+        partition,
+        solve_radiosity,
+    )
+    from lumijax.radiosity._operator import SampledBucket, TransportOperator
+
+    tri = furnished_room()
+    p = mesh_patches(tri, patch_size=args.patch_size)
+    t = time.perf_counter()
+    block = build_operator(p, partition(p, 512, occluders=tri), tri)
+    block_s = time.perf_counter() - t
+    d = np.array([1.0, 0.5, 1.2]) - p.centroid
+    r2 = np.sum(d * d, axis=1)
+    cos = np.clip(np.einsum("ij,ij->i", d, p.normal) / np.sqrt(r2), 0, None)
+    e_dir = 300.0 * cos * np.clip(-d[:, 2] / np.sqrt(r2), 0, None) / r2  # lx
+    rho = np.where(p.normal[:, 2] > 0.5, 0.3, 0.7)
+    b0 = jnp.asarray((rho * e_dir)[:, None], jnp.float32)
+    a = p.area
+
+    def solved(op):
+        b = solve_radiosity(op, jnp.asarray(rho, jnp.float32), b0).value
+        return np.asarray(b)[:, 0], np.asarray(op.matmul(b))[:, 0]
+
+    b_ref, e_ref = solved(block)
+
+    def score(e):
+        mean = np.sum(a * (e - e_ref)) / np.sum(a * e_ref)
+        rms = np.sqrt(np.sum(a * (e - e_ref) ** 2) / np.sum(a * e_ref**2))
+        return mean, rms
+
+    def from_links(like, g):
+        g = g.tocoo()
+        order = np.lexsort((g.col, g.row))
+        r, c, w = g.row[order], g.col[order], g.data[order]
+        chunk = max(1, min(1 << 16, len(w)))
+        pad = -(-len(w) // chunk) * chunk - len(w)
+        fill = lambda x, v, dt: np.concatenate([x, np.full(pad, v)]).astype(dt)  # noqa: E731
+        bucket = SampledBucket(jnp.asarray(fill(w, 0, np.float32)),
+                               jnp.asarray(fill(r, p.n, np.int32)),
+                               jnp.asarray(fill(c, p.n, np.int32)), chunk=chunk)
+        return TransportOperator((bucket,), like.area, like.block_of, like.n_patches, 1,
+                                 like.info)
+
+    print(f"machine: {platform.platform()}, {os.cpu_count()} cores; room of "
+          f"tests/radiosity/test_sampled.py at {args.patch_size} m: {p.n:,} patches; "
+          f"block operator {block_s:.1f} s")
+    print("| rays a patch | links a patch | variant | build (s) | indirect: mean | "
+          "indirect: RMS per patch |")
+    print("|---|---|---|---|---|---|")
+    last = None
+    for n_rays in args.rays:
+        t = time.perf_counter()
+        op = build_sampled(p, tri, SampledSettings(rays_per_patch=n_rays, seed=args.seed))
+        build_s = time.perf_counter() - t
+        bk = op.buckets[0]
+        g = sp.coo_matrix((np.asarray(bk.weight, np.float64),
+                           (np.asarray(bk.recv), np.asarray(bk.src))),
+                          shape=(p.n + 1, p.n + 1)).tocsr()[:p.n, :p.n]
+        rows = np.asarray(g.sum(1)).ravel()
+        s = ((g + g.T) * 0.5).tocsr()
+        srows = np.asarray(s.sum(1)).ravel()
+        recip = sp.diags(rows / np.where(srows > 0, srows, 1.0)) @ s
+        k = np.ones(p.n)
+        for _ in range(60):  # symmetric Sinkhorn: k_i Σ_j S_ij k_j = rows_i
+            k = np.sqrt(k * rows / np.maximum(s @ k, 1e-30))
+        balanced = sp.diags(k) @ s @ sp.diags(k)
+        for name, o in (("sampled", op), ("reciprocal", from_links(op, recip)),
+                        ("balanced", from_links(op, balanced))):
+            mean, rms = score(solved(o)[1])
+            links = (g if name == "sampled" else s).nnz / p.n
+            print(f"| {n_rays:,} | {links:,.0f} | {name} | {build_s:.1f} | {mean:+.2%} | "
+                  f"{rms:.2%} |", flush=True)
+        last = g
+
+    f = block.todense()
+    err = (sp.diags(1.0 / a) @ last).toarray() - f
+    tot = f @ b_ref
+    rel = lambda x: np.sqrt(np.sum(a * x**2) / np.sum(a * tot**2))  # noqa: E731
+    dist = np.linalg.norm(p.centroid[:, None] - p.centroid[None], axis=-1)
+    print()
+    print(f"one product F̂B − FB at {args.rays[-1]:,} rays: RMS per patch "
+          f"{rel(err @ b_ref):.2%}; split by the pair's distance r")
+    print("| r (m) | pairs nearer a patch | share of ΣAF nearer | RMS from nearer | "
+          "RMS from farther |")
+    print("|---|---|---|---|---|")
+    for r in (0.5, 1.0, 1.5, 2.0):
+        near = dist < r
+        share = np.sum(np.where(near, f, 0) * a[:, None]) / np.sum(f * a[:, None])
+        print(f"| {r} | {near.sum() / p.n:,.0f} | {share:.0%} | {rel((err * near) @ b_ref):.2%} |"
+              f" {rel((err * ~near) @ b_ref):.2%} |")
+
+
+if __name__ == "__main__":
+    main()
