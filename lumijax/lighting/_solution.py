@@ -373,7 +373,11 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
     Sources are solved and gathered in batches of as many as the solve's memory budget takes
     (``radiosity._estimate.solve_column_batch``; one batch when all fit): each batch's B₀, its
     copies and its float64 answer exist only while it is solved, so the host holds the whole
-    spectral radiosity once, not the five copies one solve of every column would make.
+    spectral radiosity once, not the five copies one solve of every column would make. The
+    batches are as equal as the sources allow, and the progress counts each batch as an equal
+    share of the columns: a product's time grows far less than its columns (the sparse
+    operator's gathers are memory-bound), so a short last batch counted by its columns made
+    the bar's time left too short (docs/radiosity.md, "Column batches").
     """
     from ..radiosity._estimate import solve_column_batch
     from ..radiosity._solve import join_solutions
@@ -387,16 +391,19 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
     n_src, n_w = s.shape
     n = patch_direct.shape[1]
     per = max(1, solve_column_batch(n, n_src * n_w, np.dtype(dtype).itemsize) // n_w)
+    n_batches = -(-n_src // per)
+    bounds = [n_src * k // n_batches for k in range(n_batches + 1)]
     transmission = sp.transmission(sol.coarse.patches)
     b = e_ind = None
     parts, solve_s, gather_s = [], 0.0, 0.0
+    columns = n_src * n_w
     if progress is not None:
-        progress(0, n_src * n_w)
-    for lo in range(0, n_src, per):
-        hi = min(lo + per, n_src)
+        progress(0, columns)
+    for k, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
         t = time.perf_counter()
-        told = None if progress is None else (
-            lambda done, total, lo=lo: progress(lo * n_w + done, n_src * n_w))
+        told = None if progress is None else (  # batch k is the k-th equal share
+            lambda done, total, k=k: progress(columns * (k * total + done) // (n_batches * total),
+                                              columns))
         b_k, res = solve_spectral(sol.transport, sp.rho, patch_direct[lo:hi], s[lo:hi], dtype,
                                   transmission=transmission, solver=sol.solve_method,
                                   rtol=sol.solve_tolerance, max_steps=sol.solve_max_steps,
