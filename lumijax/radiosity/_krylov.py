@@ -106,7 +106,7 @@ class ColumnBiCGStab(_Transposable):
     atol: float
     max_steps: int
     stall: int = 20
-    report: bool = False  # the worst active column's best residual to ``_progress`` a step
+    progress: bool = False  # the worst active column's best residual to ``_progress`` a step
 
     def compute(self, state, vector, options: dict[str, Any]):
         op = state
@@ -152,10 +152,10 @@ class ColumnBiCGStab(_Transposable):
             bad = bad | (since >= self.stall)
             step = active & ~bad
             keep = lambda new, old: jnp.where(step, new, old)  # noqa: E731
-            if self.report:
+            if self.progress:
                 left = step & (norm > tol)
-                # after convergence: the refinement's true residual and the solve's own,
-                # two products, one step
+                # due after convergence: the refinement's true residual and the solve's own,
+                # two products, one step (BiCGStab alone: one product)
                 report(jnp.max(jnp.where(left, jnp.minimum(norm, c["best"]), 0.0)), tol,
                        c["k"] + 1, tail=1)
             return dict(

@@ -91,18 +91,18 @@ class BiCGStab(AbstractKrylovSolver):
     products on a good day; stops with ``RESULTS.breakdown`` on a bad one."""
 
     stall: int = 20
-    report: bool = False
+    progress: bool = False  # report each step to ``_progress`` (:meth:`reporting`)
 
     def linear_solver(self, atol, max_products):
         return ColumnBiCGStab(atol=atol, max_steps=max(max_products // 2, 1), stall=self.stall,
-                              report=self.report)
+                              progress=self.progress)
 
     def reporting(self):
-        return dataclasses.replace(self, report=True)
+        return dataclasses.replace(self, progress=True)
 
     @property
     def reports(self) -> bool:
-        return self.report
+        return self.progress
 
     def products(self, stats):
         return stats["products"]
@@ -155,14 +155,14 @@ class Refined(AbstractKrylovSolver):
 class Jacobi(AbstractRadiositySolver):
     """``x ← b + K x``: products grow like 1/(1 − ρ). Forward only, for comparison."""
 
-    report: bool = False
+    progress: bool = False  # report each step to ``_progress`` (:meth:`reporting`)
 
     def reporting(self):
-        return dataclasses.replace(self, report=True)
+        return dataclasses.replace(self, progress=True)
 
     @property
     def reports(self) -> bool:
-        return self.report
+        return self.progress
 
     def run(self, op, b, atol, max_products):
         def cond(c):
@@ -173,7 +173,7 @@ class Jacobi(AbstractRadiositySolver):
             x, _, k = c
             new = b + op.mv(x)
             r = jnp.max(jnp.abs(new - x))
-            if self.report:  # the solve's final residual is one more product
+            if self.progress:  # the solve's final residual is one more product
                 report(r, atol, k + 1, tail=1)
             return new, r, k + 1
 
@@ -193,14 +193,14 @@ class Southwell(AbstractRadiositySolver):
     of the initial flux; ``max_products`` counts full sweeps (one shot per block).
     """
 
-    report: bool = False
+    progress: bool = False  # report each step to ``_progress`` (:meth:`reporting`)
 
     def reporting(self):
-        return dataclasses.replace(self, report=True)
+        return dataclasses.replace(self, progress=True)
 
     @property
     def reports(self) -> bool:
-        return self.report
+        return self.progress
 
     def run(self, op, b, atol, max_products):
         tr = op.transport
@@ -224,7 +224,7 @@ class Southwell(AbstractRadiositySolver):
             shoot = jnp.where((block_of == blk).reshape(mask_shape), u, 0.0)
             dx = op.rho * tr.matmul_from_block(shoot, blk)
             u = u - shoot + dx
-            if self.report:  # a shot is a block's column of F: the final residual, nb shots
+            if self.progress:  # a shot is a block's column of F: the final residual, nb shots
                 report(jnp.sum(flux(u)) / total0, atol, k + 1, tail=nb)
             return x + dx, u, k + 1
 

@@ -3,6 +3,7 @@ operator's exact kernels, finite differences and its own file format."""
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -293,3 +294,26 @@ def test_an_unknown_transport_names_the_key(write_study):
 
     with pytest.raises(ConfigError, match="transport"):
         load_study(write_study(_room("rays")))
+
+
+def test_a_narrow_product_runs_padded_and_gives_the_same_bits(small_furnished, monkeypatch):
+    # 25…63 columns run zero-padded to 64 on the CPU (XLA:CPU's faster rows: _operator's
+    # _WIDE_ROWS); the zero columns touch no real column's sums
+    from lumijax.radiosity import _operator
+
+    _, _, _, op = small_furnished
+    (bucket,) = op.buckets
+    x = np.random.default_rng(3).uniform(0, 50, (op.n_patches + 1, 40)).astype(np.float32)
+    x[-1] = 0  # the padding patch
+
+    def product(transpose):  # a new trace every call: the constant is read when tracing
+        return np.asarray(jax.jit(lambda xe: bucket.apply(xe, jnp.zeros_like(xe),
+                                                          transpose=transpose))(jnp.asarray(x)))
+
+    padded = [product(t) for t in (False, True)]
+    jaxpr = str(jax.make_jaxpr(lambda xe: bucket.apply(xe, jnp.zeros_like(xe)))(x))
+    assert f"f32[{op.n_patches + 1},64]" in jaxpr  # it did run on 64 columns
+    monkeypatch.setattr(_operator, "_WIDE_ROWS", 0)  # padding off
+    for t, got in zip((False, True), padded, strict=True):
+        np.testing.assert_array_equal(got, product(t))
+    assert np.abs(padded[0]).max() > 1.0
