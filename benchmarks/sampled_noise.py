@@ -15,8 +15,9 @@ the field's RMS, as docs/radiosity.md, "Two levels") for
 * ``balanced``: the same made symmetric *and* of those row sums (``s_i s_j S_ij``, symmetric
   Sinkhorn scaling);
 
-and, once, where the error of one product ``F̂ B − F B`` (B the reference's radiosity) comes
-from: pairs nearer than r against the rest — what an exact near field could remove.
+the sampled operator's own noise (two seeds' difference ÷ √2), and, once, where the error of
+one product ``F̂ B − F B`` (B the reference's radiosity) comes from: pairs nearer than r
+against the rest — what an exact near field could remove.
 """
 
 from __future__ import annotations
@@ -24,21 +25,21 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
+ROOT = Path(__file__).resolve().parents[1]
+
 
 def furnished_room():
-    import trimesh
+    """The test's room (``tests/radiosity/test_sampled.py``), its triangles (T, 3, 3), m."""
+    sys.path[:0] = [str(ROOT), str(ROOT / "tests")]  # the test module imports ``helpers``
+    from tests.radiosity.test_sampled import _furnished_triangles
 
-    m = trimesh.creation.box(extents=(4.0, 3.0, 2.8))
-    m.invert()
-    desk = trimesh.creation.box(extents=(1.2, 0.8, 0.05))
-    desk.apply_translation([0.5, 0.3, -0.65])
-    wall = trimesh.creation.box(extents=(0.05, 1.5, 1.4))
-    wall.apply_translation([-0.8, -0.4, -0.7])
-    return np.concatenate([m.triangles, desk.triangles, wall.triangles])
+    return _furnished_triangles()
 
 
 def main() -> None:
@@ -123,10 +124,20 @@ def main() -> None:
         balanced = sp.diags(k) @ s @ sp.diags(k)
         for name, o in (("sampled", op), ("reciprocal", from_links(op, recip)),
                         ("balanced", from_links(op, balanced))):
-            mean, rms = score(solved(o)[1])
+            e = solved(o)[1]
+            mean, rms = score(e)
             links = (g if name == "sampled" else s).nnz / p.n
             print(f"| {n_rays:,} | {links:,.0f} | {name} | {build_s:.1f} | {mean:+.2%} | "
                   f"{rms:.2%} |", flush=True)
+            if name == "sampled":
+                plain = e
+        # the sampled operator's own noise: two seeds' difference ÷ √2 (what is left of the
+        # RMS above is a difference between the two operators, not noise)
+        other = solved(build_sampled(p, tri, SampledSettings(rays_per_patch=n_rays,
+                                                             seed=args.seed + 1)))[1]
+        noise = np.sqrt(np.sum(a * (other - plain) ** 2) / np.sum(a * e_ref**2)) / np.sqrt(2)
+        print(f"| {n_rays:,} | | own noise (seeds {args.seed}, {args.seed + 1}: difference "
+              f"÷ √2) | | | {noise:.2%} |", flush=True)
         last = g
 
     f = block.todense()

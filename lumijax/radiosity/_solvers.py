@@ -64,6 +64,20 @@ class AbstractRadiositySolver(eqx.Module):
         return False
 
 
+class _Stepwise(eqx.Module):
+    """A solver whose own loop tells ``_progress`` each step when ``progress`` is set
+    (BiCGStab, Jacobi, Southwell; listed first among their bases, so these methods win)."""
+
+    progress: bool = False
+
+    def reporting(self):
+        return dataclasses.replace(self, progress=True)
+
+    @property
+    def reports(self) -> bool:
+        return self.progress
+
+
 class AbstractKrylovSolver(AbstractRadiositySolver):
     """A solver that is a lineax linear solver, differentiated implicitly by lineax (tangent
     and adjoint solves with the same method; the adjoint uses ``Kᵀ = Fᵀρ``)."""
@@ -86,23 +100,15 @@ class AbstractKrylovSolver(AbstractRadiositySolver):
         return x, self.products(sol.stats), sol.result, dict(sol.stats)
 
 
-class BiCGStab(AbstractKrylovSolver):
+class BiCGStab(_Stepwise, AbstractKrylovSolver):
     """BiCGStab per column with relative breakdown tests (:class:`ColumnBiCGStab`): fewest
     products on a good day; stops with ``RESULTS.breakdown`` on a bad one."""
 
     stall: int = 20
-    progress: bool = False  # report each step to ``_progress`` (:meth:`reporting`)
 
     def linear_solver(self, atol, max_products):
         return ColumnBiCGStab(atol=atol, max_steps=max(max_products // 2, 1), stall=self.stall,
                               progress=self.progress)
-
-    def reporting(self):
-        return dataclasses.replace(self, progress=True)
-
-    @property
-    def reports(self) -> bool:
-        return self.progress
 
     def products(self, stats):
         return stats["products"]
@@ -152,17 +158,8 @@ class Refined(AbstractKrylovSolver):
         return self.inner.reports or self.fallback.reports
 
 
-class Jacobi(AbstractRadiositySolver):
+class Jacobi(_Stepwise, AbstractRadiositySolver):
     """``x ← b + K x``: products grow like 1/(1 − ρ). Forward only, for comparison."""
-
-    progress: bool = False  # report each step to ``_progress`` (:meth:`reporting`)
-
-    def reporting(self):
-        return dataclasses.replace(self, progress=True)
-
-    @property
-    def reports(self) -> bool:
-        return self.progress
 
     def run(self, op, b, atol, max_products):
         def cond(c):
@@ -183,7 +180,7 @@ class Jacobi(AbstractRadiositySolver):
         return x, k, result, {}
 
 
-class Southwell(AbstractRadiositySolver):
+class Southwell(_Stepwise, AbstractRadiositySolver):
     """Progressive shooting by blocks (Southwell relaxation on the block system), the paper's
     method. Forward only.
 
@@ -192,15 +189,6 @@ class Southwell(AbstractRadiositySolver):
     part to x and to U, and clears the block's U. Stops when the unshot flux is below ``atol``
     of the initial flux; ``max_products`` counts full sweeps (one shot per block).
     """
-
-    progress: bool = False  # report each step to ``_progress`` (:meth:`reporting`)
-
-    def reporting(self):
-        return dataclasses.replace(self, progress=True)
-
-    @property
-    def reports(self) -> bool:
-        return self.progress
 
     def run(self, op, b, atol, max_products):
         tr = op.transport
