@@ -375,9 +375,10 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
     copies and its float64 answer exist only while it is solved, so the host holds the whole
     spectral radiosity once, not the five copies one solve of every column would make. The
     batches are as equal as the sources allow, and the progress counts each batch as an equal
-    share of the columns: a product's time grows far less than its columns (the sparse
-    operator's gathers are memory-bound), so a short last batch counted by its columns made
-    the bar's time left too short (docs/radiosity.md, "Column batches").
+    share of the columns: a product's time grows far less than its columns (a sampled product
+    of 25–63 columns runs on 64: ``radiosity._operator._WIDE_ROWS``), so a short last batch
+    counted by its columns made the bar's time left too short (docs/radiosity.md, "Column
+    batches").
     """
     from ..radiosity._estimate import solve_column_batch
     from ..radiosity._solve import join_solutions
