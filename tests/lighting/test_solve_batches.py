@@ -103,3 +103,19 @@ def test_time_left_is_the_rate_so_far(elapsed, done, total, left):
     (12.0, 4, (10.0, 1), 0.0)])
 def test_time_left_leaves_out_the_first_chunk_once_there_is_a_second(elapsed, done, first, left):
     assert _time_left(elapsed, done, 4, first) == left
+
+
+def test_uneven_sources_make_equal_batches_and_equal_shares(write_study, monkeypatch):
+    """Three sources at most two a batch: batches of 1 and 2 (as equal as three allow), each
+    half of the bar, and the one-batch answer."""
+    path = write_study(box_room('precision = "float64"\ntarget_patches = 60\ncache = false',
+                                networks=("a", "b", "c"), grid="nu = 4\nnv = 3"))
+    monkeypatch.setenv("LUMIJAX_MEMORY_BYTES", str(10**12))
+    whole, _ = _compute(path)
+    w = whole.spectral.n
+    per = solve_column_bytes(whole.coarse.patches.n, 8)
+    monkeypatch.setenv("LUMIJAX_MEMORY_BYTES", str(int((2 * w + 0.5) * per / SOLVE_SHARE)))
+    parts, seen = _compute(path)
+    solve = [(d, t) for s, d, t in seen if s == "solving inter-reflections"]
+    assert solve == [(0, 3 * w), (3 * w // 2, 3 * w), (3 * w, 3 * w)]
+    np.testing.assert_allclose(parts.point_indirect, whole.point_indirect, rtol=1e-12)
