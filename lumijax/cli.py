@@ -5,7 +5,7 @@
     lumijax check CONFIG [--json]
     lumijax report CONFIG [--out DIR] [--no-pictures] [--pdf]
     lumijax view CONFIG [--web] [--host HOST] [--port PORT] [--camera NAME]
-    lumijax demo [--out DIR] [--no-report] [--no-images] [--quick]
+    lumijax demo [--out DIR] [--no-report] [--no-images] [--quick] [--timings]
 
 Errors from bad input are printed as one line naming the file and key, without a traceback, and
 the exit status is 1 (2 for a bad command line).
@@ -614,6 +614,7 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--no-report", action="store_true", help="do not write report.html")
     demo.add_argument("--no-images", action="store_true", help="numbers only (as run)")
     demo.add_argument("--quick", action="store_true", help="as run --quick")
+    demo.add_argument("--timings", action="store_true", help="as run --timings")
     return p
 
 
@@ -642,7 +643,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run(default_study_path(), args.out,
                         images=not (args.no_images or args.quick), shadows=True,
                         console=console, cache_dir=args.out / ".lumijax-cache",
-                        report=not (args.no_report or args.quick), quick=args.quick)
+                        report=not (args.no_report or args.quick), quick=args.quick,
+                        timings=args.timings)
         if args.command == "ugr-table":
             return _ugr_table(args.file, spacing_h=args.spacing, lamp_flux_lm=args.lamp_flux,
                               as_json=args.json, console=console)

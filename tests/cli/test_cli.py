@@ -106,9 +106,14 @@ def test_installed_entry_point_runs_as_a_process(box_room, write_study, tmp_path
     assert "photometry.iso.flux_lm" in proc.stderr and "Traceback" not in proc.stderr
 
 
-def test_demo_runs_the_bundled_study(tmp_path, capsys):
+def test_demo_runs_the_bundled_study(tmp_path):
+    # README's first command as a user runs it: its own process, in JAX's default float32 (not
+    # the suite's x64), with its report
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out)]) == 0
+    proc = subprocess.run([sys.executable, "-m", "lumijax.cli", "demo", "--out", str(out),
+                           "--timings"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert "Traceback" not in proc.stderr
     res = json.loads((out / "results.json").read_text())
     # the courtyard corner: two facades (S, E), per facade and kind a network, plus two
     assert set(res["grids"]) == {"S-wall", "S-columns", "E-wall", "E-columns", "court",
@@ -119,7 +124,7 @@ def test_demo_runs_the_bundled_study(tmp_path, capsys):
     for name in res["grids"]:
         assert (out / "images" / f"{name}.png").stat().st_size > 10_000
         assert res["grids"][name]["stats"]["avg"] > 0
-    assert "S-wall" in capsys.readouterr().out
+    assert "S-wall" in proc.stdout and "where the time went" in proc.stdout
     # the demo designs to a standard: least power under the grids' limits and a GR ceiling of
     # 50 per visitor (EN 12464-2 Table 5.1.1); each visitor's worst GR is recomputed here from
     # CIE 112 with the entry's own veiling and environment luminances, and is within it
@@ -130,6 +135,8 @@ def test_demo_runs_the_bundled_study(tmp_path, capsys):
                  for d in obs["directions"] if d["veiling_cdm2"] > 0)
         assert obs["worst"]["gr"]["value"] == pytest.approx(gr, abs=1e-3), name
         assert gr <= 50 * (1 + 1e-3), name
+    report = (out / "report.html").read_text(encoding="utf-8")
+    assert all(name in report for name in [*res["grids"], *res["glare"]])
 
 
 def test_a_one_point_grid_has_its_numbers_and_a_plan_not_a_blank_map(box_room, write_study,
