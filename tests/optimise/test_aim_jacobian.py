@@ -52,9 +52,11 @@ def test_structured_jacobian_equals_reverse_mode(facade_results, variables):
         x = jnp.asarray(lo + (hi - lo) * rng.uniform(size=lo.shape))
         smooth = jnp.asarray(1e-2)
         g, jac = _g_and_jac_traced(problem, x, smooth)
-        ref = jax.jacrev(problem.g)(x, smooth)
-        np.testing.assert_allclose(np.asarray(g), np.asarray(problem.g(x, smooth)),
-                                   rtol=1e-12, atol=1e-12)
+        # the reference compiled as one program: run op by op, its ~200 primitives each
+        # compiled on their own take twice as long (the same reverse-mode arithmetic)
+        ref = eqx.filter_jit(lambda p, x, s: jax.jacrev(p.g)(x, s))(problem, x, smooth)
+        g_ref = eqx.filter_jit(lambda p, x, s: p.g(x, s))(problem, x, smooth)
+        np.testing.assert_allclose(np.asarray(g), np.asarray(g_ref), rtol=1e-12, atol=1e-12)
         scale = float(jnp.max(jnp.abs(ref)))
         assert scale > 0
         np.testing.assert_allclose(np.asarray(jac), np.asarray(ref), rtol=1e-7,
@@ -92,7 +94,8 @@ def test_the_krylov_branch_gives_the_dense_jacobian(facade_results):
     are stored."""
     study, results = facade_results
     with float64_scope():
-        problem, params = _problem(study, results, ["dimmers", "aims"])
+        # the variables of the reverse-mode test above: its dense program serves here as well
+        problem, params = _problem(study, results, ["dimmers", "aims", "levels"])
         krylov = eqx.tree_at(lambda p: p.model.lu, problem, None, is_leaf=lambda v: v is None)
 
         def f32(a):
@@ -123,14 +126,23 @@ def test_the_pull_back_in_chunks_is_the_pull_back_at_once(facade_results):
         problem, params = _problem(study, results, ["dimmers", "aims", "levels"])
         model = problem.model
         x = jnp.asarray(np.clip(np.asarray(params.x0) + 0.05, params.lower, params.upper))
-        e, b, alpha, pull = model.linearise(x)
+        sizes = (1, 2, 3, 5, 8)
+
+        # one program: the linearisation, its pull-back at once and in chunks of each size
+        # (run op by op and compiled a size at a time, they take nearly twice as long)
+        @eqx.filter_jit
+        def pulled(model, x, rows):
+            pull = model.linearise(x)[3]
+            return pull(*rows), [pull_in_chunks(pull, rows, size) for size in sizes]
+
+        shapes = jax.eval_shape(lambda x: model.linearise(x)[:3], x)
         rng = np.random.default_rng(11)
         rows = tuple(None if a is None else jnp.asarray(rng.normal(size=(5, *a.shape)))
-                     for a in (e, b, alpha))
-        full = np.asarray(pull(*rows))
+                     for a in shapes)
+        full, chunked = pulled(model, x, rows)
+        full = np.asarray(full)
         assert full.shape == (5, x.shape[0]) and np.abs(full).max() > 0
-        for size in (1, 2, 3, 5, 8):
-            got = jax.jit(lambda r, size=size: pull_in_chunks(pull, r, size))(rows)
+        for got in chunked:
             np.testing.assert_allclose(np.asarray(got), full, rtol=1e-12,
                                        atol=1e-12 * np.abs(full).max())
         assert model.pull_rows(budget_bytes=1) == 1

@@ -195,7 +195,9 @@ def test_one_reverse_pass_equals_the_jacobian_contraction(facade_results):
         lo, hi = np.asarray(params.lower), np.asarray(params.upper)
         x = jnp.asarray(lo + (hi - lo) * rng.uniform(size=lo.shape))
         lam = jnp.asarray([5.0, 5.0])  # large enough that both enter ∇Φ (λ − ρg > 0)
-        rho, eps = jnp.asarray(1.0), jnp.asarray(1e-2)
+        # float64, not weakly typed: the arguments the solver passes, so that its programs,
+        # compiled by the previous test, are not compiled again for another signature
+        rho, eps = jnp.asarray(1.0, jnp.float64), jnp.asarray(1e-2, jnp.float64)
         (phi, (f, g)), grad = _phr_value_and_grad(prob, x, lam, rho, eps)
         g_ref, jac = _g_and_jac_traced(prob, x, eps)
         _, grad_f = _f_grad(prob, x)
