@@ -60,7 +60,7 @@ def test_every_batch_size_gives_the_unbatched_solve(pair, solver):
     ref = np.stack([np.stack([dense(f, rho[:, 0, w], b0[:, s, w]) for w in range(5)], -1)
                     for s in range(3)], 1)
     np.testing.assert_allclose(np.asarray(whole.value), ref, rtol=1e-9, atol=1e-9)
-    for batch in (1, 4, 7, 15, 40):  # 4 and 7 do not divide 15 columns: the last is padded
+    for batch in (1, 4, 7, 15, 40):  # 4: batches of 4, the last padded; 7: three equal of 5
         seen = []
         got = solve(op, rho, b0, solver=solver, rtol=1e-11, column_batch=batch,
                     progress=lambda done, total, seen=seen: seen.append((done, total)))
@@ -115,7 +115,7 @@ def test_the_batch_comes_from_the_memory_budget(pair, monkeypatch):
 
 
 def test_gradient_through_a_batched_solve(pair):
-    """d(Σ w·B)/dρ for ρ shared by 6 columns: batched (4 + 2 padded) equals unbatched, and
+    """d(Σ w·B)/dρ for ρ shared by 6 columns: batched (at most 4: two of 3) equals unbatched, and
     both equal the adjoint formula Σ_c (F B_c) ⊙ λ_c, λ_c = (I − ρF)⁻ᵀ w_c, in numpy."""
     p, op, f = pair
     rng = np.random.default_rng(1)
