@@ -33,7 +33,6 @@ from lumijax._jit_cache import enable_compilation_cache  # noqa: E402
 enable_compilation_cache()
 
 
-
 def pytest_xdist_auto_num_workers(config) -> int:
     """``-n auto``: one worker more than the CPUs (``--maxprocesses`` still caps it). Workers
     wait on subprocesses (the demo, the sharded solve, the Dask cluster) and on the disk; a

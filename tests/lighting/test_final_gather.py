@@ -43,14 +43,20 @@ def _area_mean(v, area):
     return float(np.sum(v * area) / np.sum(area))
 
 
+def _loaded(tmp_path_factory, name: str, text: str):
+    """``(study, points, normals)`` of the study ``text``, its grids concatenated."""
+    path = tmp_path_factory.mktemp(name) / "room.toml"
+    path.write_text(text, encoding="utf-8")
+    study = load_study(path)
+    grids = study.scene.grids
+    return (study, np.concatenate([g.points for g in grids]),
+            np.concatenate([g.normals for g in grids]))
+
+
 @pytest.fixture(scope="module")
 def room(tmp_path_factory):
-    path = tmp_path_factory.mktemp("room") / "room.toml"
-    path.write_text(ROOM, encoding="utf-8")
-    study = load_study(path)
+    study, pts, nrm = _loaded(tmp_path_factory, "room", ROOM)
     sc = study.scene
-    pts = np.concatenate([g.points for g in sc.grids])
-    nrm = np.concatenate([g.normals for g in sc.grids])
     one = solve_lighting(sc, pts, nrm, solver_settings(study))
     two = solve_lighting(sc, pts, nrm, solver_settings(study, operator_patches=ELEMENTS))
     return study, pts, nrm, one, two
@@ -65,13 +71,8 @@ SMALL_ROOM = _room(patch_size=0.5, gather_rays=256)
 
 @pytest.fixture(scope="module")
 def small_room(tmp_path_factory):
-    path = tmp_path_factory.mktemp("small_room") / "room.toml"
-    path.write_text(SMALL_ROOM, encoding="utf-8")
-    study = load_study(path)
-    sc = study.scene
-    pts = np.concatenate([g.points for g in sc.grids])
-    nrm = np.concatenate([g.normals for g in sc.grids])
-    two = solve_lighting(sc, pts, nrm, solver_settings(study, operator_patches=ELEMENTS))
+    study, pts, nrm = _loaded(tmp_path_factory, "small_room", SMALL_ROOM)
+    two = solve_lighting(study.scene, pts, nrm, solver_settings(study, operator_patches=ELEMENTS))
     # two levels for real: the fine patches several times the elements
     assert two.fine is not None and two.coarse.patches.n < two.fine.patches.n / 3
     return study, pts, nrm, two
