@@ -161,7 +161,9 @@ class GlareModel(eqx.Module):
         # demo's first run, contended). The terms are the model's dtype (float32 here)
         # either way; only the aim's rotation was figured in float64 before rounding.
         with jax.enable_x64(self.background.dtype == np.float64):
-            ugr_terms, veil_terms = _contributions(self, ones)  # shared with contributions()
+            # through contributions(): the same program as the results' (optimised or not by
+            # the model's size), so a run that designs and then reports compiles it once
+            ugr_terms, veil_terms = self.contributions(ones)
             return DimmerGlare(self, *_per_network(self, ugr_terms, veil_terms))
 
     def _source_network(self) -> Int[Array, " src"]:
