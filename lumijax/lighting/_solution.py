@@ -59,11 +59,11 @@ def _corrected_matmul(transport, b):
 
 
 def _small(transport, b) -> dict | None:
-    """XLA's options for the product: unoptimised when as small as a small solve (it runs once
-    per process; optimised, the demo's took 1.7 s to compile, 0.9 s without)."""
-    from ..radiosity._solve import SMALL_SOLVE
+    """XLA's options for the product: a small solve's (``radiosity._solve.compiler_options``;
+    it runs once per process: optimised, the demo's took 0.9–1.1 s to compile)."""
+    from ..radiosity._solve import compiler_options
 
-    return _executables.UNOPTIMISED if transport.n_patches * b.shape[-1] <= SMALL_SOLVE else None
+    return compiler_options(transport, b)
 
 
 @_executables.stored("corrected_matmul", "lighting/_solution.py", "radiosity/", "kernels/",

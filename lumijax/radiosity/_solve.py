@@ -30,13 +30,29 @@ similar size then reuses the compiled ``_solve`` (XLA's persistent cache keys on
 
 **Small solves.** A small study's solve compiles for longer than it runs: XLA:CPU spends
 ~2.6 s compiling the default solver's program (BiCGStab, the GMRES fallback, the
-refinement's residuals) and ~0.03 s running it on 1,200 patches. Up to :data:`SMALL_SOLVE`
-values (padded patches × columns) the program is therefore compiled without LLVM's
-optimisation passes (:data:`SMALL_SOLVE_OPTIONS`): measured on a cube room, compile 2.6 → 1.9 s
-(float64, 1 column) and 2.6 → 1.8 s (float32, 16 columns), the run 0.03 → 0.06 s and 0.038 →
-0.040 s; at 10,092 patches × 16 columns the run would grow 2.2 → 3.1 s for 1.4 s less
-compiling, so larger solves keep the optimised program. The answers agree to rounding (largest
-difference 3·10⁻¹⁶ of the largest value in float64, 3·10⁻⁷ in float32, on those rooms).
+refinement's residuals) and ~0.03 s running it on 1,200 patches. A solve whose operator holds
+at most :data:`SMALL_OPERATOR_BYTES` and whose ``b0`` at most :data:`SMALL_SOLVE` values
+(padded patches × columns) is therefore compiled without LLVM's optimisation passes
+(:data:`SMALL_SOLVE_OPTIONS`). The operator's size decides because the unoptimised program's
+extra run time grows with the entries each product reads, and less than in proportion with
+the columns (a product over many columns amortises each entry). Measured in a new process
+each, float32, unoptimised / optimised (session 19, alone; cold: compile and run, warm: the
+stored executable's load and run):
+
+============================  ===========  ===========  ===========  ===========
+study (operator, b0)          cold s       warm s       chosen       why
+                              unopt / opt  unopt / opt
+============================  ===========  ===========  ===========  ===========
+cube ρ 0.5 (13 MB, 1,792×1)   2.0 / 3.1    0.25 / 0.27  unoptimised  −1.0 s cold
+furnished (13 MB, 2,304×1)    2.3 / 3.5    0.22 / 0.13  unoptimised  −1.2 s cold
+office (63 MB, 5,120×4)       2.1 / 2.8    0.42 / 0.37  unoptimised  −0.7 s cold
+demo (31 MB, 3,584×60)        4.1 / 6.6    0.81 / 0.60  unoptimised  −2.5 s cold
+cube 10 k (231 MB, 10,240×1)  2.6 / 2.7    0.87 / 0.46  optimised    +0.4 s warm
+============================  ===========  ===========  ===========  ===========
+
+(Before session 19 the rule was b0's values alone, ≤ 65,536: the demo's solve was optimised
+and the 10 k-patch cube's was not.) The answers agree to rounding (largest difference
+3·10⁻¹⁶ of the largest value in float64, 3·10⁻⁷ in float32, on cube rooms).
 
 **Distinct columns.** Two columns with the same reflectance and the same B₀ (in the solve's
 precision) are the same problem: only the distinct ones are solved and the answer is broadcast
@@ -516,7 +532,7 @@ def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, 
     args = (transport, rho, b0, solver, rtol, max_steps, correct_rows, tau, partner)
     # XLA takes options for a whole program only: inside a trace the caller's program decides
     traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(args))
-    options = None if traced else compiler_options(b0)
+    options = None if traced else compiler_options(transport, b0)
     if _executables.store_dir() is not None and not solver.reports:  # callbacks: not stored
         out = _executables.call("radiosity_solve", _solve_packed, args,
                            _executables.source_digest("radiosity/", "kernels/"),
@@ -529,11 +545,15 @@ def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, 
     return (_solve_jit if options is None else _solve_jit_small)(*args)
 
 
-def compiler_options(b0) -> dict | None:
-    """XLA's options for the compiled solve of ``b0`` (padded patches × columns): none for a
-    large solve; :data:`SMALL_SOLVE_OPTIONS` for one of at most :data:`SMALL_SOLVE` values,
-    where compiling costs more than running (module docstring, "Small solves")."""
-    return SMALL_SOLVE_OPTIONS if int(np.prod(b0.shape)) <= SMALL_SOLVE else None
+def compiler_options(transport, b0) -> dict | None:
+    """XLA's options for one compiled program that applies ``transport`` to ``b0`` (padded
+    patches × columns): :data:`SMALL_SOLVE_OPTIONS` where compiling costs more than running
+    (an operator of at most :data:`SMALL_OPERATOR_BYTES`, at most :data:`SMALL_SOLVE`
+    values; module docstring, "Small solves"), else none. The solve and the patch output's
+    product (``lighting._solution``) both ask here."""
+    small = (transport.nbytes <= SMALL_OPERATOR_BYTES
+             and int(np.prod(np.shape(b0))) <= SMALL_SOLVE)
+    return SMALL_SOLVE_OPTIONS if small else None
 
 
 def _solve_packed(*args) -> dict:
@@ -580,9 +600,16 @@ def _solve_body(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=N
     return b, jnp.asarray(iterations), residual, result, escaped, stats
 
 
-SMALL_SOLVE = 1 << 16
+SMALL_SOLVE = 1 << 18
 """Most values (padded patches × columns) of a solve compiled with
-:data:`SMALL_SOLVE_OPTIONS` (module docstring, "Small solves")."""
+:data:`SMALL_SOLVE_OPTIONS` (module docstring, "Small solves"): the largest measured, the
+demo's 3,584 × 60, under it."""
+
+SMALL_OPERATOR_BYTES = 128 << 20
+"""Largest operator (``TransportOperator.nbytes``) of a solve compiled with
+:data:`SMALL_SOLVE_OPTIONS` (module docstring, "Small solves"): between the office's 63 MB
+(unoptimised 0.7 s faster cold, 0.05 s slower warm) and the 10 k-patch cube's 231 MB (0.4 s
+slower warm, no faster cold)."""
 
 REPORTED_SOLVE = 1 << 22
 """Fewest values (padded patches × columns of a batch) of a solve whose solver reports its

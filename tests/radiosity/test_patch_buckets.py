@@ -47,15 +47,23 @@ def sol_solver():
 
 
 def test_small_solves_compile_unoptimised_and_large_ones_optimised():
-    # radiosity/_solve.py, "Small solves": by padded patches × columns; the dense check above
-    # (1,280 × 3 values) runs the unoptimised program, the demo (3,584 × 60) the optimised one
-    from lumijax.radiosity._solve import SMALL_SOLVE, SMALL_SOLVE_OPTIONS, compiler_options
+    # radiosity/_solve.py, "Small solves": by the operator's bytes and b0's values; the demo
+    # (31 MB, 3,584 × 60) compiles unoptimised, a 10 k-patch cube (231 MB, 1 column) optimised
+    from types import SimpleNamespace
 
-    assert SMALL_SOLVE == 65_536
-    assert compiler_options(np.zeros((1280, 3))) is SMALL_SOLVE_OPTIONS
-    assert compiler_options(np.zeros((4096, 16))) is SMALL_SOLVE_OPTIONS
-    assert compiler_options(np.zeros((4096, 16, 2))) is None
-    assert compiler_options(np.zeros((106_496, 1))) is None
+    from lumijax.radiosity._solve import (SMALL_OPERATOR_BYTES, SMALL_SOLVE,
+                                          SMALL_SOLVE_OPTIONS, compiler_options)
+
+    def op(mb):
+        return SimpleNamespace(nbytes=int(mb * 1e6))
+
+    assert SMALL_SOLVE == 262_144 and SMALL_OPERATOR_BYTES == 134_217_728
+    assert compiler_options(op(13), np.zeros((1280, 3))) is SMALL_SOLVE_OPTIONS
+    assert compiler_options(op(31), np.zeros((3584, 60))) is SMALL_SOLVE_OPTIONS
+    assert compiler_options(op(63), np.zeros((5120, 4))) is SMALL_SOLVE_OPTIONS
+    assert compiler_options(op(231), np.zeros((10_240, 1))) is None  # the operator decides
+    assert compiler_options(op(31), np.zeros((3584, 60, 2))) is None  # the columns decide
+    assert compiler_options(op(1), np.zeros((106_496, 1))) is SMALL_SOLVE_OPTIONS
 
 
 def test_a_small_solve_asks_for_the_unoptimised_program_and_a_traced_one_does_not(
