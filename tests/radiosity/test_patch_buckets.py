@@ -51,8 +51,12 @@ def test_small_solves_compile_unoptimised_and_large_ones_optimised():
     # (31 MB, 3,584 × 60) compiles unoptimised, a 10 k-patch cube (231 MB, 1 column) optimised
     from types import SimpleNamespace
 
-    from lumijax.radiosity._solve import (SMALL_OPERATOR_BYTES, SMALL_SOLVE,
-                                          SMALL_SOLVE_OPTIONS, compiler_options)
+    from lumijax.radiosity._solve import (
+        SMALL_OPERATOR_BYTES,
+        SMALL_SOLVE,
+        SMALL_SOLVE_OPTIONS,
+        compiler_options,
+    )
 
     def op(mb):
         return SimpleNamespace(nbytes=int(mb * 1e6))
