@@ -6,15 +6,16 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 
 import numpy as np
 
 from .._study import Study
 from ..results import Results
+from ._png import figure_png
 from ._sections import ReportSection
 
-__all__ = ["glare_sections", "fisheye_png", "observer_fisheye", "traced_fisheye_png"]
+__all__ = ["glare_sections", "fisheye_png", "observer_fisheye", "results_tracer",
+           "traced_fisheye_png"]
 
 #: Pixels across an observer's traced fisheye in the report.
 FISHEYE_PX = 360
@@ -47,19 +48,18 @@ def glare_sections(study: Study, results: Results, pictures: bool) -> list[Repor
     body += _surfaces_table(data)
     if pictures:
         figs = []
-        surface = None
+        tracer = None
         if results.lighting is not None:
             from ._surfaces import surface_light
 
-            surface = surface_light(results)
+            tracer = results_tracer(results, surface_light(results))
         for i, name in enumerate(data):
             views = glare.views_of(i)
             w = data[name]["worst"]
             j = (w["gr"] or w["ugr"] or {"direction": 0})["direction"]
             title = _title(name, data[name]["directions"][j])
-            if surface is not None:  # the whole scene, traced (lumijax.render)
-                image, ugr, _ = observer_fisheye(results, i, view=int(views[j]),
-                                                 surface=surface)
+            if tracer is not None:  # the whole scene, traced (lumijax.render)
+                image, ugr, _ = observer_fisheye(results, i, view=int(views[j]), tracer=tracer)
                 png = traced_fisheye_png(image, glare, int(views[j]), title=title, ugr=ugr)
                 what = ("the whole scene's luminance its eye sees in its worst direction "
                         "(traced: reflections of the sources included), angular fisheye "
@@ -141,39 +141,50 @@ def fisheye_png(glare, view: int, *, title: str = "", size_in: float = 4.5) -> b
     ax.set_xticks([])
     ax.set_yticks([])
     ax.set_title(title, fontsize=8)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", bbox_inches="tight")
+    png = figure_png(fig, bbox_inches="tight")
     plt.close(fig)
-    return buf.getvalue()
+    return png
 
 
 def observer_fisheye(results: Results, observer: int, *, view: int | None = None,
-                     surface=None, size: int = FISHEYE_PX):
+                     surface=None, size: int = FISHEYE_PX, tracer=None):
     """``(LuminanceImage, UGR, L_b)``: the angular 180° fisheye (:class:`lumijax.render.
     Fisheye`) an observer's eye sees along view ``view`` (its first line of sight by default),
     traced through the whole lit scene — surfaces at their radiosity, luminaires at their
     luminance, their specular reflections and what clear glass passes — and the image's own
-    UGR and background (cd/m²), evalglare's way (:meth:`LuminanceImage.ugr`)."""
-    from ..design import Design
-    from ..render import Fisheye, Tracer
-    from ._surfaces import surface_light
+    UGR and background (cd/m²), evalglare's way (:meth:`LuminanceImage.ugr`). ``tracer``: the
+    :func:`results_tracer` of these results, to share between observers (built if None)."""
+    from ..render import Fisheye
 
-    glare, lighting = results.glare, results.lighting
-    if glare is None or lighting is None:
+    glare = results.glare
+    if glare is None or results.lighting is None:
         raise ValueError("observer_fisheye needs results with glare and a lighting solution")
-    scene = lighting.scene
-    if results.design.same_study(Design.of(scene)):  # the luminaires as designed
-        scene = scene.with_design(results.design)
     if view is None:
         view = int(glare.views_of(observer)[0])
     eye = np.asarray(glare.observers[observer].eye, np.float64)
     f = np.asarray(glare.model.view_direction, np.float64)[view]
-    surface = surface if surface is not None else surface_light(results)
+    if tracer is None:
+        tracer = results_tracer(results, surface)
     cam = Fisheye(position=tuple(eye), target=tuple(eye + f), up=(0.0, 0.0, 1.0),
                   size=(size, size), projection="equidistant", fov_deg=180.0)
-    image = Tracer.for_scene(scene, surface).render(cam, results.design.dimmers)
+    image = tracer.render(cam, results.design.dimmers)
     ugr, lb = image.ugr()
     return image, ugr, lb
+
+
+def results_tracer(results: Results, surface=None):
+    """The :class:`lumijax.render.Tracer` of ``results``' lit scene, its luminaires as the
+    results' design aims them (``surface``: the report's ``surface_light(results)``, figured if
+    None). One per report: each tracer builds its own ray-casting structures."""
+    from ..design import Design
+    from ..render import Tracer
+    from ._surfaces import surface_light
+
+    scene = results.lighting.scene
+    if results.design.same_study(Design.of(scene)):  # the luminaires as designed
+        scene = scene.with_design(results.design)
+    surface = surface if surface is not None else surface_light(results)
+    return Tracer.for_scene(scene, surface)
 
 
 def traced_fisheye_png(image, glare, view: int, *, title: str = "", ugr: float | None = None,
@@ -206,7 +217,6 @@ def traced_fisheye_png(image, glare, view: int, *, title: str = "", ugr: float |
     if ugr is not None and np.isfinite(ugr):
         ax.set_xlabel(f"UGR of this image (sources > 5 × its mean luminance): {ugr:.1f}",
                       fontsize=7)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", bbox_inches="tight")
+    png = figure_png(fig, bbox_inches="tight")
     plt.close(fig)
-    return buf.getvalue()
+    return png

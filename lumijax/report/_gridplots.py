@@ -12,7 +12,6 @@ lists the values of every grid that is not a map.
 
 from __future__ import annotations
 
-import io
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +22,7 @@ import numpy as np
 from ..config._schema import _GridBase
 from ..errors import LumijaxError
 from ..results import CRITERIA_SLACK, GridResult
+from ._png import figure_png
 
 __all__ = ["GridPicture", "grid_picture", "picture_kind", "path_legs", "PictureKind"]
 
@@ -140,9 +140,7 @@ def _png(fig) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     FigureCanvasAgg(fig)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100, facecolor="white")
-    return buf.getvalue()
+    return figure_png(fig, dpi=100, facecolor="white")
 
 
 def profile_png(grid: GridResult, config=None, *, title: str, size=(1200, 560)) -> bytes:

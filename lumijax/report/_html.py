@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import base64
 import datetime as _dt
-import io
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -27,6 +26,7 @@ from ..config._schema import _GridBase
 from ..design import Design
 from ..errors import OutputError
 from ..results import CRITERIA_SLACK, GridResult, Results
+from ._png import figure_png
 from ._sections import ReportSection
 
 __all__ = ["write_report", "report_context", "render_report", "grid_criteria",
@@ -117,10 +117,9 @@ def _convergence_png(history) -> bytes | None:
     for side in ("top", "right"):
         ax.spines[side].set_visible(False)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
+    png = figure_png(fig)
     plt.close(fig)
-    return buf.getvalue()
+    return png
 
 
 def _optimisation_section(opt: dict, study, results) -> dict[str, Any]:
@@ -158,8 +157,9 @@ def _optimisation_section(opt: dict, study, results) -> dict[str, Any]:
 def _pictures(study: Study, results: Results, cameras, timings) -> tuple[list, list, dict]:
     """The views of the cameras, notes, and each network's own picture."""
     from ._camera import cameras_of
+    from ._png import png_bytes
     from ._surfaces import surface_light
-    from ._views import png_bytes, render_falsecolour_view, render_realistic
+    from ._views import render_falsecolour_view, render_realistic
 
     views: list = []
     notes: list = []
@@ -216,7 +216,8 @@ def _network_views(surface, cams, dimmers, scene, results) -> dict[str, dict[str
     """Each network alone at dimmer 1, through the first realistic camera (or the first one),
     at the exposure metered for the whole design, so each picture is as bright as that
     network's light is beside the others'."""
-    from ._views import auto_exposure, png_bytes, render_realistic
+    from ._png import png_bytes
+    from ._views import auto_exposure, render_realistic
 
     cam = next((c for c in cams if c.kind == "realistic"), cams[0])
     w, h = cam.size

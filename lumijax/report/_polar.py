@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import io
 import threading
 
 import numpy as np
 
-__all__ = ["polar_plot", "beam_angle_deg", "intensity_np"]
+from ._png import figure_png
+
+__all__ = ["polar_plot", "prerender", "beam_angle_deg", "intensity_np"]
 
 _PLANES = {"C": ((0.0, 180.0), (90.0, 270.0)), "B": ((0.0, 180.0), (90.0, 270.0)),
            "A": ((0.0, 180.0), (90.0, 270.0))}
@@ -107,18 +108,47 @@ def beam_angle_deg(dist, c_deg: float = 0.0) -> float:
     return float(inside.max() - inside.min())
 
 
+#: (id(photometry), name, dpi) → (photometry, PNG): what :func:`prerender` drew in the background
+#: for the report (the photometry is held, so its id stays its own)
+_PLOTS: dict[tuple[int, str, int], tuple[object, bytes]] = {}
+
+
+def prerender(photometries, *, dpi: int = 110) -> None:
+    """Draw the report's polar diagram of each photometry (``{name: Photometry}``) now, and
+    keep it for :func:`polar_plot`: a run that will write a report does this in the background
+    while it computes (``report._prewarm``; ~1 s of a demo report). A drawing that fails here
+    is left for the report to draw and report."""
+    for name, p in photometries.items():
+        try:
+            png = _draw_polar(p, name, dpi)
+        except Exception:
+            continue
+        with _lock:
+            if len(_PLOTS) >= _MAX_CURVES:
+                _PLOTS.pop(next(iter(_PLOTS)))
+            _PLOTS[id(p), name, dpi] = (p, png)
+
+
 def polar_plot(photometry, name: str, *, dpi: int = 110) -> bytes:
     """PNG of the polar candela diagram: the C0–C180 and C90–C270 planes, γ = 0 (the axis)
     pointing down, intensity in cd."""
-    import matplotlib
+    with _lock:
+        hit = _PLOTS.get((id(photometry), name, dpi))
+    if hit is not None and hit[0] is photometry:
+        return hit[1]
+    return _draw_polar(photometry, name, dpi)
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+
+def _draw_polar(photometry, name: str, dpi: int) -> bytes:
+    # matplotlib's object API, not pyplot: no global figure list, so another thread may draw
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     dist = photometry.distribution
     gamma = _GAMMA[::2]  # 0.5° steps
     curves = _main_curves(dist)
-    fig = plt.figure(figsize=(4.2, 4.4), dpi=dpi)
+    fig = Figure(figsize=(4.2, 4.4), dpi=dpi)
+    FigureCanvasAgg(fig)
     ax = fig.add_subplot(projection="polar")
     ax.set_theta_zero_location("S")
     styles = (("#1f4e79", "-"), ("#c0504d", "--"))
@@ -138,7 +168,4 @@ def polar_plot(photometry, name: str, *, dpi: int = 110) -> bytes:
              ha="center", va="top", fontsize=8, color="#444444")
     ax.legend(loc="lower center", bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize=7, frameon=False)
     fig.subplots_adjust(top=0.80, bottom=0.14)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    plt.close(fig)
-    return buf.getvalue()
+    return figure_png(fig, dpi=dpi)

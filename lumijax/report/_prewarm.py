@@ -6,10 +6,13 @@ matplotlib the first time it draws: ~1.5 s of a cold ``lumijax demo`` (pyvista's
 the optimiser. :func:`start` imports them in a daemon thread when the run begins, so the
 imports overlap the lighting's compiled kernels and ray casts (which release the GIL), and the
 first picture finds them loaded; a run that writes a report also figures its photometries'
-plane curves there first (the polar plots' and beam angles' lookups). Nothing is drawn and no window or OpenGL context is made
-(those belong to the thread that draws); the modules are the ones the first picture imports
-today (pyvista's plotting brings ``matplotlib.pyplot`` with it), in the same order. An import
-that fails here is left for the drawing code to report as it always has.
+plane curves there first (the polar plots' and beam angles' lookups) and, once matplotlib is
+in, draws their polar diagrams (matplotlib's object API, no pyplot state: ``_polar.
+prerender``). Nothing else is drawn and no window or OpenGL context is made (those belong to
+the thread that draws); the modules are the ones the first picture imports today (pyvista's
+plotting brings ``matplotlib.pyplot`` with it), in the same order, then colour-science (the
+views' tone mapping: ~0.5 s). An import that fails here is left for the drawing code to
+report as it always has.
 
 ``LUMIJAX_PREWARM=0`` (or ``off``, ``false``, ``no``) turns it off.
 """
@@ -32,6 +35,7 @@ MODULES = (
     "matplotlib.backends.backend_agg",
     "matplotlib.ticker",
     "matplotlib.colors",
+    "colour",
 )
 """What a drawing run imports on its first picture, in that order."""
 
@@ -51,6 +55,10 @@ def _prewarm(photometries) -> None:
             importlib.import_module(name)
         except Exception:  # missing or broken: the drawing code reports it when it draws
             return
+    if photometries:
+        from ._polar import prerender
+
+        prerender(photometries)
 
 
 def start(photometries=None) -> threading.Thread | None:

@@ -176,3 +176,21 @@ def test_polar_plot_is_a_drawn_png():
     # the C0-C180 curve is drawn in its dark blue (#1f4e79)
     blue = np.all(np.abs(img - [0x1F, 0x4E, 0x79]) < 30, axis=-1)
     assert blue.sum() > 100
+
+
+def test_a_prerendered_polar_plot_is_the_report_s_and_the_same_picture():
+    # report._prewarm draws the polar diagrams in the background; the report must get that
+    # drawing for the same photometry and name, and it must be what drawing now would give
+    import threading
+
+    from lumijax.report._polar import prerender
+
+    p = spot(1000.0, 30.0)
+    fresh = polar_plot(p, "spot 30°")
+    t = threading.Thread(target=prerender, args=({"spot 30°": p},))
+    t.start()
+    t.join()
+    kept = polar_plot(p, "spot 30°")
+    assert kept == fresh
+    assert polar_plot(p, "spot 30°") is kept  # the kept bytes, not a new drawing
+    assert polar_plot(p, "another name") != kept  # the name is part of the picture
