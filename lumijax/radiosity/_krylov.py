@@ -220,11 +220,13 @@ class Refinement(_Transposable):
 
     ``stats``: ``products`` (all operator products, residuals included), ``outer`` (true
     residuals formed), ``failures`` (inner solves that did not halve the true residual),
-    ``fallback`` (whether the fallback solver was used).
+    ``fallback`` (whether the fallback solver was used). With ``fallback=None`` the loop stops
+    where the fallback would have taken over (result: stagnation, unless the residual is met),
+    and the program holds no fallback to compile.
     """
 
     inner: lx.AbstractLinearSolver
-    fallback: lx.AbstractLinearSolver
+    fallback: lx.AbstractLinearSolver | None
     atol: float
     max_products: int
     restarts: int = 2
@@ -241,8 +243,11 @@ class Refinement(_Transposable):
             return (b.astype(wide) - _wide_mv(op, xw)).astype(b.dtype)
 
         def cond(c):
-            return (c["norm"] > tol) & (c["outer"] < self.max_outer) & (
+            go_on = (c["norm"] > tol) & (c["outer"] < self.max_outer) & (
                 c["products"] < self.max_products)
+            if self.fallback is None:  # no fallback to take over: stop where it would
+                go_on &= c["failures"] < self.restarts
+            return go_on
 
         def body(c):
             r = c["r"]
@@ -254,7 +259,10 @@ class Refinement(_Transposable):
                     return d, _int32(_products(solver, stats))
                 return go
 
-            d, used = jax.lax.cond(use_fallback, run(self.fallback), run(self.inner), r)
+            if self.fallback is None:
+                d, used = run(self.inner)(r)
+            else:
+                d, used = jax.lax.cond(use_fallback, run(self.fallback), run(self.inner), r)
             d = jnp.where(jnp.all(jnp.isfinite(d), axis=0, keepdims=True), d, 0.0)
             x_try = c["x"] + d
             r_try = residual(x_try)
@@ -267,7 +275,7 @@ class Refinement(_Transposable):
                 x=x, r=r_new, norm=jnp.where(better, norm_try, c["norm"]),
                 outer=c["outer"] + 1, products=c["products"] + used + 1,
                 failures=c["failures"] + failed.astype(jnp.int32),
-                fallback=c["fallback"] | use_fallback,
+                fallback=c["fallback"] | (use_fallback & (self.fallback is not None)),
             )
 
         x0 = jnp.zeros_like(b)

@@ -58,6 +58,11 @@ class AbstractRadiositySolver(eqx.Module):
         loop) returns itself."""
         return self
 
+    def first_try(self) -> AbstractRadiositySolver | None:
+        """A cheaper-to-compile solver to run first, outside any trace: where it does not
+        succeed, this one runs (``radiosity._solve``, "Lazy fallback"); None: no such thing."""
+        return None
+
     @property
     def reports(self) -> bool:
         """Whether :meth:`run` reports its steps (a program with host callbacks)."""
@@ -135,27 +140,34 @@ class Refined(AbstractKrylovSolver):
     that did not halve it (:class:`Refinement`). Succeeds only on the true residual."""
 
     inner: AbstractKrylovSolver = BiCGStab()
-    fallback: AbstractKrylovSolver = GMRES()
+    fallback: AbstractKrylovSolver | None = GMRES()  # None: stop where it would take over
     restarts: int = 2
 
     def linear_solver(self, atol, max_products):
         half = 0.5 * atol  # the inner target: one inner solve usually suffices
         return Refinement(
             inner=self.inner.linear_solver(half, max_products),
-            fallback=self.fallback.linear_solver(half, max_products),
+            fallback=(None if self.fallback is None
+                      else self.fallback.linear_solver(half, max_products)),
             atol=atol, max_products=max_products, restarts=self.restarts,
         )
+
+    def first_try(self) -> Refined | None:
+        """This refinement without its fallback (its program compiles ~1/3 faster: no GMRES
+        in it); None when it has none."""
+        return None if self.fallback is None else dataclasses.replace(self, fallback=None)
 
     def products(self, stats):
         return stats["products"]
 
     def reporting(self):
-        return dataclasses.replace(self, inner=self.inner.reporting(),
-                                   fallback=self.fallback.reporting())
+        return dataclasses.replace(
+            self, inner=self.inner.reporting(),
+            fallback=None if self.fallback is None else self.fallback.reporting())
 
     @property
     def reports(self) -> bool:
-        return self.inner.reports or self.fallback.reports
+        return self.inner.reports or (self.fallback is not None and self.fallback.reports)
 
 
 class Jacobi(_Stepwise, AbstractRadiositySolver):

@@ -243,3 +243,26 @@ def test_bright_closed_box_matches_the_enclosure_value(cube_room, rho):
     assert inter == pytest.approx(rho**2 * phi_d / (area * (1 - rho)), rel=2e-3)
     assert bool(sol.stats["closed"])
     assert float(sol.escaped[0]) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_plain_solve_compiles_the_refinement_without_its_fallback(small_cube, monkeypatch):
+    # radiosity/_solve.py, "Lazy fallback": outside a trace the default solver first runs
+    # without GMRES; only a first try that stops where GMRES would take over runs the whole
+    # solver (test_solver_regression's breakdown test: the fallback then finishes the job).
+    # The first try's answer is (I − ρF)⁻¹ B₀ by numpy.
+    from lumijax.radiosity import _solve
+
+    p, op = small_cube
+    seen, real = [], _solve._solve_compiled
+
+    def spy(*args, **kw):
+        seen.append(args[3])
+        return real(*args, **kw)
+
+    monkeypatch.setattr(_solve, "_solve_compiled", spy)
+    rho, b0 = np.full(p.n, 0.8), np.ones((p.n, 2))
+    exact = np.linalg.solve(np.eye(p.n) - rho[:, None] * op.todense(), b0)
+    plain = solve_radiosity(op, jnp.asarray(rho), jnp.asarray(b0), rtol=1e-9,
+                            correct_rows=False)
+    assert [type(s).__name__ for s in seen] == ["Refined"] and seen[0].fallback is None
+    np.testing.assert_allclose(np.asarray(plain.value), exact, rtol=1e-7)
