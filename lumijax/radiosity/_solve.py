@@ -61,9 +61,9 @@ its fallback (:meth:`~lumijax.radiosity.AbstractRadiositySolver.first_try`), whi
 GMRES would take over; only if it stops so (not met, products left) is the whole solver
 compiled and run, from the start (the products of both count). A first try that meets the
 tolerance, or runs out of products, is the whole solver's answer: up to there the two take the
-same steps. Inside a trace (``jit``, ``grad``) the one
-program with both is traced as before. Without the fallback the furnished room's solve
-compiled in 0.82 s against 1.30 s (unoptimised, float32; session 19).
+same steps. Inside a trace (``jit``, ``grad``) the one program with both is traced as before.
+Without the fallback the furnished room's solve compiled in 1.10 s against 1.30 s
+(unoptimised, float32; session 19).
 
 **Distinct columns.** Two columns with the same reflectance and the same B₀ (in the solve's
 precision) are the same problem: only the distinct ones are solved and the answer is broadcast

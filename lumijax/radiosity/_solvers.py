@@ -153,8 +153,8 @@ class Refined(AbstractKrylovSolver):
         )
 
     def first_try(self) -> Refined | None:
-        """This refinement without its fallback (its program compiles ~1/3 faster: no GMRES
-        in it); None when it has none."""
+        """This refinement without its fallback (no GMRES in its program: the furnished
+        room's compiled in 1.10 s, not 1.30 s); None when it has none."""
         return None if self.fallback is None else dataclasses.replace(self, fallback=None)
 
     def products(self, stats):
