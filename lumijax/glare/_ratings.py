@@ -16,7 +16,9 @@ differentiable, and since a network's luminances and illuminances scale with its
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 __all__ = ["ugr", "ugr_of_sum", "glare_rating", "threshold_increment", "veiling_luminance",
@@ -52,9 +54,12 @@ def ugr(luminance: Float[Array, "... src"], solid_angle: Float[Array, "... src"]
 
 
 def ugr_of_sum(s, background):
-    """UGR from ``Σ L² ω / p²`` (cd²/m⁴·sr) and L_b (cd/m²), held ≥ 0."""
-    x = 0.25 * s / jnp.maximum(background, _TINY)
-    return 8.0 * jnp.log10(jnp.maximum(x, 1.0))
+    """UGR from ``Σ L² ω / p²`` (cd²/m⁴·sr) and L_b (cd/m²), held ≥ 0. Host numbers (floats,
+    numpy) are rated in numpy, the same formula: eagerly in JAX each of its four operations
+    compiles a kernel per process (an image's own UGR, ``render._image``)."""
+    xp = jnp if isinstance(s, jax.Array) or isinstance(background, jax.Array) else np
+    x = 0.25 * s / xp.maximum(background, _TINY)
+    return 8.0 * xp.log10(xp.maximum(x, 1.0))
 
 
 def glare_rating(luminaire_veiling: Float[Array, "..."],

@@ -551,8 +551,11 @@ def _solve(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=None, 
     out = _solve_compiled(transport, rho, b0, first, rtol, max_steps, correct_rows, tau,
                           partner, traced=False)
     # it stopped short of max_steps where the whole solver would go on (GMRES taking over);
-    # met or out of products, the whole solver would have done the same steps
-    if bool((out[3] == lx.RESULTS.successful) | (out[3] == lx.RESULTS.max_steps_reached)):
+    # met or out of products, the whole solver would have done the same steps. The codes are
+    # compared on the host (an eager jnp comparison compiles a kernel per process).
+    code = np.asarray(out[3]._value)
+    done = (lx.RESULTS.successful, lx.RESULTS.max_steps_reached)
+    if bool(np.all(np.isin(code, [np.asarray(r._value) for r in done]))):
         return out
     again = _solve_compiled(*args, traced=False)  # the whole solver, from the start
     return (again[0], again[1] + out[1], *again[2:])
