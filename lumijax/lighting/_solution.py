@@ -60,7 +60,7 @@ def _corrected_matmul(transport, b):
 
 def _small(transport, b) -> dict | None:
     """XLA's options for the product: a small solve's (``radiosity._solve.compiler_options``;
-    it runs once per process: optimised, the demo's took 0.9–1.1 s to compile)."""
+    it runs once per process: optimised, the demo's took 1.7 s to compile, 0.9 s without)."""
     from ..radiosity._solve import compiler_options
 
     return compiler_options(transport, b)
