@@ -275,7 +275,8 @@ class Refinement(_Transposable):
                 x=x, r=r_new, norm=jnp.where(better, norm_try, c["norm"]),
                 outer=c["outer"] + 1, products=c["products"] + used + 1,
                 failures=c["failures"] + failed.astype(jnp.int32),
-                fallback=c["fallback"] | (use_fallback & (self.fallback is not None)),
+                # without a fallback, cond stops before use_fallback can be true here
+                fallback=c["fallback"] | use_fallback,
             )
 
         x0 = jnp.zeros_like(b)

@@ -111,6 +111,7 @@ def beam_angle_deg(dist, c_deg: float = 0.0) -> float:
 #: (id(photometry), name, dpi) → (photometry, PNG): what :func:`prerender` drew in the background
 #: for the report (the photometry is held, so its id stays its own)
 _PLOTS: dict[tuple[int, str, int], tuple[object, bytes]] = {}
+_MAX_PLOTS = 32
 
 
 def prerender(photometries, *, dpi: int = 110) -> None:
@@ -124,7 +125,7 @@ def prerender(photometries, *, dpi: int = 110) -> None:
         except Exception:
             continue
         with _lock:
-            if len(_PLOTS) >= _MAX_CURVES:
+            if len(_PLOTS) >= _MAX_PLOTS:
                 _PLOTS.pop(next(iter(_PLOTS)))
             _PLOTS[id(p), name, dpi] = (p, png)
 

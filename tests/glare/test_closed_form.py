@@ -137,3 +137,15 @@ def scene_design(scene):
     from lumijax.design import Design
 
     return Design.of(scene)
+
+
+def test_ugr_of_host_numbers_is_the_cie_formula_in_numpy():
+    # an image's own UGR (render._image) rates host floats; CIE 117: 8 log10(0.25/L_b Σ L²ω/p²)
+    from lumijax.glare._ratings import ugr_of_sum
+
+    s, lb = 3.7e5, 42.0
+    host = ugr_of_sum(s, lb)
+    assert isinstance(host, np.floating)  # numpy, no JAX kernel
+    assert host == pytest.approx(8.0 * math.log10(0.25 / lb * s), rel=1e-12)
+    assert float(ugr_of_sum(jnp.asarray(s), jnp.asarray(lb))) == pytest.approx(host, rel=1e-6)
+    assert ugr_of_sum(1.0, 1e3) == 0.0  # held ≥ 0 below the formula's range
