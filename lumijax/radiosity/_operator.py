@@ -33,6 +33,8 @@ __all__ = [
     "Info",
     "TransportOperator",
     "ReflectionOperator",
+    "densified",
+    "DENSE_PATCHES",
 ]
 
 
@@ -117,7 +119,8 @@ class DenseBucket(AbstractBucket):
             dk, rk, sk, rbk, sbkk = xs
             if only_block is None:
                 return compute(acc, dk, rk, sk), None
-            touches = jnp.any((rbk == only_block) | (sbkk == only_block))
+            # −1: a side spanning several blocks (the one block of :func:`densified`)
+            touches = jnp.any((rbk == only_block) | (sbkk == only_block) | (rbk < 0) | (sbkk < 0))
             acc = jax.lax.cond(touches, compute, lambda acc, *_: acc, acc, dk, rk, sk)
             return acc, None
 
@@ -358,6 +361,54 @@ class TransportOperator(eqx.Module):
     def sampled_nbytes(self) -> int:
         """Bytes in ray-sampled buckets (``[solver] transport = "sampled"``)."""
         return int(sum(bk.nbytes for bk in self.buckets if bk.kind == "sampled"))
+
+
+#: The most patches (padded) whose operator :func:`densified` makes one dense block: 4,096²
+#: float32 values are 64 MiB.
+DENSE_PATCHES = 4096
+
+
+def densified(op: TransportOperator, n_patches: int | None = None) -> TransportOperator | None:
+    """``op`` as one dense block of ``G`` over ``n_patches`` (≥ ``op.n_patches``; the rest
+    exchange nothing), or None where that is not for it: more than :data:`DENSE_PATCHES`
+    patches, a sampled (non-symmetric) bucket, or values inside a trace.
+
+    A small study's solve compiles for far longer than it runs, and its program holds one
+    ``lax.scan`` per bucket in every product; one block is one BLAS product, whose program
+    is the same for every study with the same padded patch count (so a new study of that
+    size reuses it from the compilation cache) and whose speed does not hang on LLVM's
+    optimisation passes. Sums run in another order: the answer moves by rounding only.
+    """
+    n = op.n_patches if n_patches is None else int(n_patches)
+    leaves = jax.tree.leaves(op)
+    if (n > DENSE_PATCHES or n < op.n_patches or any(not bk.symmetric for bk in op.buckets)
+            or any(isinstance(x, jax.core.Tracer) for x in leaves)):
+        return None
+    dtype = op.buckets[0].dtype if op.buckets else np.dtype(np.float32)
+    g = np.zeros((n + 1, n + 1), dtype)  # the last row and column: the padding patch P
+    for bk in op.buckets:
+        r = np.asarray(bk.recv).copy()
+        s = np.asarray(bk.src).copy()
+        r[r == op.n_patches], s[s == op.n_patches] = n, n  # padding pointed at P
+        for k0 in range(0, len(r), 256):  # low-rank blocks formed a few at a time
+            sl = slice(k0, k0 + 256)
+            d = (np.asarray(bk.blocks[sl]) if isinstance(bk, DenseBucket)
+                 else np.einsum("nir,njr->nij", np.asarray(bk.u[sl]), np.asarray(bk.v[sl])))
+            # pairs cover disjoint entries (upper block pairs once), so indexing adds each
+            # entry once; only the padding patch's row and column collide, and are dropped
+            g[r[sl, :, None], s[sl, None, :]] += d
+            if not bk.diagonal:
+                g[s[sl, :, None], r[sl, None, :]] += np.swapaxes(d, 1, 2)
+    ar = np.arange(n, dtype=np.int32)[None]
+    spans = np.full(1, -1, np.int32)  # numpy, then a transfer: an eager jnp op compiles
+    one = DenseBucket(*(jnp.asarray(x) for x in (g[None, :n, :n], ar, ar, spans, spans)),
+                      diagonal=True, chunk=1)
+    area = np.ones(n, np.asarray(op.area).dtype)
+    area[: op.n_patches] = np.asarray(op.area)
+    block_of = np.full(n, -1, np.asarray(op.block_of).dtype)
+    block_of[: op.n_patches] = np.asarray(op.block_of)
+    return TransportOperator((one,), jnp.asarray(area), jnp.asarray(block_of), n, op.n_blocks,
+                             Info())
 
 
 # -- K = ρF as a lineax operator ------------------------------------------------------------------

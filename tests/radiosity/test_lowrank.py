@@ -243,3 +243,17 @@ def test_exact_check_rejects_a_factorisation_that_misses_a_shadow():
                          caster=caster, counters=counters)
     assert st["check_error"] <= 1e-3
     assert np.linalg.norm(u @ v.T - g) <= 1e-3 * np.linalg.norm(g)
+
+
+def test_one_dense_block_holds_every_bucket(plates):
+    # radiosity._operator.densified: low-rank and dense buckets, both directions, into one G
+    from lumijax.radiosity._operator import densified
+
+    p, op, _, _ = plates
+    one = densified(op, p.n + 40)  # 40 padding patches: no form factors
+    assert len(one.buckets) == 1 and one.n_patches == p.n + 40
+    f = one.todense()
+    np.testing.assert_allclose(f[: p.n, : p.n], op.todense(), rtol=1e-6,
+                               atol=1e-7 * np.abs(f).max())
+    assert not f[p.n:].any() and not f[:, p.n:].any()
+    assert densified(op, p.n - 1) is None  # fewer patches than it has: refused

@@ -266,3 +266,25 @@ def test_a_plain_solve_compiles_the_refinement_without_its_fallback(small_cube, 
                             correct_rows=False)
     assert [type(s).__name__ for s in seen] == ["Refined"] and seen[0].fallback is None
     np.testing.assert_allclose(np.asarray(plain.value), exact, rtol=1e-7)
+
+
+@pytest.mark.parametrize("method", ["refined", "southwell", "gmres"])
+def test_one_dense_block_solves_as_the_buckets_do(monkeypatch, method):
+    # radiosity/_solve.py, "Small solves": up to DENSE_PATCHES the solve applies one dense
+    # block; above, the buckets. Both against numpy's dense solve (Southwell's shots from one
+    # block at a time included: the dense block spans all six).
+    from lumijax.radiosity import _operator
+
+    m = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    m.invert()
+    p = mesh_patches(m.triangles, patch_size=0.25)
+    part = partition(p, 16)
+    assert part.n_blocks >= 6
+    op = build_operator(p, part, None)
+    rho, b0 = np.full(p.n, 0.7), np.random.default_rng(3).random((p.n, 2))
+    exact = np.linalg.solve(np.eye(p.n) - rho[:, None] * op.todense(), b0)
+    for limit in (_operator.DENSE_PATCHES, 0):
+        monkeypatch.setattr(_operator, "DENSE_PATCHES", limit)
+        got = solve_radiosity(op, jnp.asarray(rho), jnp.asarray(b0), rtol=1e-9,
+                              correct_rows=False, solver=method, max_steps=20_000)
+        np.testing.assert_allclose(np.asarray(got.value), exact, rtol=1e-6)
