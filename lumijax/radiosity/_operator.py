@@ -387,13 +387,25 @@ def densified(op: TransportOperator, n_patches: int | None = None) -> TransportO
     dtype = op.buckets[0].dtype if op.buckets else np.dtype(np.float32)
     g = np.zeros((n + 1, n + 1), dtype)  # the last row and column: the padding patch P
     for bk in op.buckets:
-        r = np.asarray(bk.recv).copy()
-        s = np.asarray(bk.src).copy()
-        r[r == op.n_patches], s[s == op.n_patches] = n, n  # padding pointed at P
+        r, s = _padded_to(np.asarray(bk.recv), op.n_patches, n), _padded_to(
+            np.asarray(bk.src), op.n_patches, n)
+        ranges = _ranges(r, n), _ranges(s, n)
+        # on the host first: slicing a JAX array is an eager op (a kernel compiled)
+        values = ((np.asarray(bk.blocks),) if isinstance(bk, DenseBucket)
+                  else (np.asarray(bk.u), np.asarray(bk.v)))
         for k0 in range(0, len(r), 256):  # low-rank blocks formed a few at a time
             sl = slice(k0, k0 + 256)
-            d = (np.asarray(bk.blocks[sl]) if isinstance(bk, DenseBucket)
-                 else np.einsum("nir,njr->nij", np.asarray(bk.u[sl]), np.asarray(bk.v[sl])))
+            d = (values[0][sl] if len(values) == 1
+                 else np.einsum("nir,njr->nij", values[0][sl], values[1][sl]))
+            if ranges[0] is not None and ranges[1] is not None:
+                # each side one run of patches (a partition's block): copies of whole slices,
+                # a tenth of the indexed scatter's time (the demo's 3,490 patches: 25 ms)
+                for k, dk in enumerate(d, start=k0):
+                    (a, na), (b, nb) = ranges[0][k], ranges[1][k]
+                    g[a:a + na, b:b + nb] = dk[:na, :nb]
+                    if not bk.diagonal:
+                        g[b:b + nb, a:a + na] = dk[:na, :nb].T
+                continue
             # pairs cover disjoint entries (upper block pairs once), so indexing adds each
             # entry once; only the padding patch's row and column collide, and are dropped
             g[r[sl, :, None], s[sl, None, :]] += d
@@ -409,6 +421,22 @@ def densified(op: TransportOperator, n_patches: int | None = None) -> TransportO
     block_of[: op.n_patches] = np.asarray(op.block_of)
     return TransportOperator((one,), jnp.asarray(area), jnp.asarray(block_of), n, op.n_blocks,
                              Info())
+
+
+def _padded_to(index: np.ndarray, pad: int, n: int) -> np.ndarray:
+    """Patch indices with the padding patch ``pad`` renumbered ``n``."""
+    return np.where(index == pad, n, index)
+
+
+def _ranges(index: np.ndarray, pad: int) -> list[tuple[int, int]] | None:
+    """``(first, count)`` of each row's patches where every row is one run ``first,
+    first + 1, …`` followed by padding ``pad``; else None."""
+    count = (index != pad).sum(axis=1)
+    step = np.arange(index.shape[1])
+    run = np.where(step < count[:, None], index[:, :1] + step, pad)
+    if not np.array_equal(index, run):
+        return None
+    return list(zip(index[:, 0].tolist(), count.tolist()))
 
 
 # -- K = ρF as a lineax operator ------------------------------------------------------------------
