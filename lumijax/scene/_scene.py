@@ -410,18 +410,16 @@ def _check_luminaires_outside_solids(scene: Scene, cfg: StudyConfig, src) -> Non
     closed_items = np.flatnonzero(tri.closed)
     if not len(closed_items) or not scene.luminaires:
         return
-    import trimesh
+    from ._inside import inside_closed
 
     positions = np.array([lum.position for lum in scene.luminaires])
     for item in closed_items:
-        sel = tri.item == item
-        v = tri.vertices[sel].reshape(-1, 3)
-        mesh = trimesh.Trimesh(v, np.arange(len(v)).reshape(-1, 3), process=True)
-        lo, hi = mesh.bounds
+        v = tri.vertices[tri.item == item]
+        lo, hi = v.reshape(-1, 3).min(axis=0), v.reshape(-1, 3).max(axis=0)
         cand = np.flatnonzero(np.all((positions > lo) & (positions < hi), axis=1))
         if not len(cand):
             continue
-        inside = mesh.contains(positions[cand])
+        inside = inside_closed(v, positions[cand])
         if inside.any():
             lum = scene.luminaires[cand[int(np.argmax(inside))]]
             raise GeometryError(
