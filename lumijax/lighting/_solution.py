@@ -48,14 +48,24 @@ __all__ = ["LightingSolution", "Level", "float64_scope"]
 _T = TypeVar("_T")
 
 
-def _corrected_matmul(transport, b):
+def _corrected_matmul(transport, b) -> np.ndarray:
     """``F' b`` with the solve's row correction (:meth:`LightingSolution.patch_illuminance`):
-    one compiled program where its eager ops compiled a dozen in every process. The operator's
-    build statistics (a static field) are dropped first: they differ by run and would key a
-    new program each time."""
-    from ..radiosity._operator import Info
+    one compiled program where its eager ops compiled a dozen in every process. A small
+    operator is applied as the solve applies it, one dense block over the padded patches
+    (``radiosity._solve``, "Small solves"): a program keyed on the padded size only. Else the
+    operator's build statistics (a static field) are dropped first: they differ by run and
+    would key a new program each time."""
+    from ..radiosity._operator import Info, densified
+    from ..radiosity._solve import patch_bucket
 
-    return _corrected_matmul_kernel(dataclasses.replace(transport, info=Info()), b)
+    n = transport.n_patches
+    dense = densified(transport, patch_bucket(n))
+    if dense is None:
+        return np.asarray(_corrected_matmul_kernel(dataclasses.replace(transport, info=Info()), b))
+    host = np.asarray(b)
+    padded = np.zeros((dense.n_patches,) + host.shape[1:], host.dtype)
+    padded[:n] = host  # padding patches: no form factors, row sum 0, left uncorrected
+    return np.asarray(_corrected_matmul_kernel(dense, to_device(padded)))[:n]
 
 
 def _small(transport, b) -> dict | None:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import abc
 import json
+import weakref
 from typing import ClassVar
 
 import equinox as eqx
@@ -384,6 +385,22 @@ def densified(op: TransportOperator, n_patches: int | None = None) -> TransportO
     if (n > DENSE_PATCHES or n < op.n_patches or any(not bk.symmetric for bk in op.buckets)
             or any(isinstance(x, jax.core.Tracer) for x in leaves)):
         return None
+    kept = _DENSIFIED.get((id(op), n))
+    if kept is not None and kept[0]() is op:  # the solve's, asked again by the patch product
+        return kept[1]
+    one = _densified(op, n)
+    # inside a trace its arrays are the trace's constants (tracers): not for another trace
+    if not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(one)):
+        _DENSIFIED[(id(op), n)] = (weakref.ref(op), one)
+        weakref.finalize(op, _DENSIFIED.pop, (id(op), n), None)  # kept as long as op lives
+    return one
+
+
+#: ``(id(op), n)`` → (a weak reference to op, its :func:`densified`).
+_DENSIFIED: dict[tuple[int, int], tuple[weakref.ref, TransportOperator]] = {}
+
+
+def _densified(op: TransportOperator, n: int) -> TransportOperator:
     dtype = op.buckets[0].dtype if op.buckets else np.dtype(np.float32)
     g = np.zeros((n + 1, n + 1), dtype)  # the last row and column: the padding patch P
     for bk in op.buckets:
