@@ -34,6 +34,7 @@ old entries are only read by their own key).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import platform
@@ -43,12 +44,36 @@ import warnings
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["MAGIC", "SUFFIX", "UNOPTIMISED", "call", "store_dir", "source_digest", "stored"]
+__all__ = ["MAGIC", "SUFFIX", "UNOPTIMISED", "LEGACY_EMITTERS", "unoptimised", "call",
+           "store_dir", "source_digest", "stored"]
 
 #: XLA's options for a program that runs about once per process and is small: LLVM's
 #: optimisation passes off (compiling then costs more than running; radiosity/_solve.py,
-#: "Small solves"). The small solve, the glare terms and the patch output's product use it.
+#: "Small solves"). The small solve, the glare terms and the patch output's product use
+#: :func:`unoptimised`, which adds :data:`LEGACY_EMITTERS` where this XLA has it.
 UNOPTIMISED = {"xla_backend_optimization_level": 0}
+
+#: XLA:CPU's switch from its MLIR fusion emitters back to the LLVM IR ones, off: a small
+#: program's fusions compile in half the time (the furnished room's solve 1.0–1.1 → 0.45–0.49
+#: s, session 20). For every program (``XLA_FLAGS``) it was measured and not taken: the direct
+#: light's kernel ran 10–25 % slower (``benchmarks/direct.py``, 100 × 10⁵).
+LEGACY_EMITTERS = "xla_cpu_use_fusion_emitters"
+
+
+@functools.cache
+def unoptimised() -> dict:
+    """:data:`UNOPTIMISED`, with :data:`LEGACY_EMITTERS` off where this XLA knows the option
+    (XLA is retiring that path: an option it does not know fails the compile, so a one-off
+    compile of a trivial program asks first, ~20 ms)."""
+    import jax
+    import numpy as np
+
+    options = {**UNOPTIMISED, LEGACY_EMITTERS: False}
+    try:
+        jax.jit(lambda x: x + 1, compiler_options=options).lower(np.float32(0)).compile()
+    except Exception:  # jaxlib's runtime error: "No such compile option"
+        return dict(UNOPTIMISED)
+    return options
 
 MAGIC = b"lumijax-executable-1\n"
 SUFFIX = ".ljxc"

@@ -28,6 +28,7 @@ levels; no ray. As in the optimiser's aim model, the LM-63 TILT factor keeps its
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from typing import NamedTuple
@@ -144,7 +145,7 @@ class GlareModel(eqx.Module):
         """Per view and source (``names`` order): the UGR terms ``L² ω / p²`` and the veiling
         luminance terms ``10 E / θ²`` (cd/m²), at ``design``."""
         small = self.n_views * len(self.names) <= _SMALL_TERMS
-        return (_contributions_small if small else _contributions)(self, design)
+        return (_contributions_small() if small else _contributions)(self, design)
 
     def ratings(self, design) -> GlareRatings:
         """As calling the model, not compiled (for tracing inside another transformation)."""
@@ -309,8 +310,12 @@ _contributions = eqx.filter_jit(_terms_of)
 #: once per results, and optimising it costs more than it saves (the demo's 32 views × 230
 #: fittings: compile 3.9 → 2.4 s, run 0.9 → 1.2 ms).
 _SMALL_TERMS = 1 << 16
-_contributions_small = eqx.filter_jit(  # type: ignore[call-overload]
-    _terms_of, compiler_options=_executables.UNOPTIMISED)
+
+
+@functools.cache
+def _contributions_small():
+    return eqx.filter_jit(  # type: ignore[call-overload]
+        _terms_of, compiler_options=_executables.unoptimised())
 
 
 def _veil(e_eye, angle_deg):

@@ -33,7 +33,7 @@ similar size then reuses the compiled ``_solve`` (XLA's persistent cache keys on
 refinement's residuals) and ~0.03 s running it on 1,200 patches. A solve whose operator holds
 at most :data:`SMALL_OPERATOR_BYTES` and whose ``b0`` at most :data:`SMALL_SOLVE` values
 (padded patches × columns) is therefore compiled without LLVM's optimisation passes
-(:data:`SMALL_SOLVE_OPTIONS`). The operator's size decides because the unoptimised program's
+(:func:`small_solve_options`). The operator's size decides because the unoptimised program's
 extra run time grows with the entries each product reads, and less than in proportion with
 the columns (a product over many columns amortises each entry). Measured in a new process
 each, float32, unoptimised / optimised (session 19, alone; cold: compile and run, warm: the
@@ -59,7 +59,10 @@ float32) the solve applies the operator as one dense block
 per bucket in every product of the program, and a program that depends on the padded patch
 count and the columns only, not on the study's block structure. Session 20, alternated runs
 in new processes: the demo's solve stage, every cache empty, 2.71 / 2.58 s → 1.53 / 1.40 s;
-the furnished room's solve compiled in 0.82 s against 1.09 s. The answers agree to rounding (largest difference
+the furnished room's solve compiled in 0.82 s against 1.09 s. Since then the small solve
+also asks for XLA's older (LLVM IR) fusion emitters where XLA still has them
+(:data:`lumijax._executables.LEGACY_EMITTERS`): the furnished room's solve, every cache
+empty, compiled in 0.45–0.49 s against 1.0–1.1 s (three runs each). The answers agree to rounding (largest difference
 3·10⁻¹⁶ of the largest value in float64, 3·10⁻⁷ in float32, on cube rooms).
 
 **Lazy fallback.** The default solver (``Refined``: iterative refinement around BiCGStab, GMRES
@@ -97,6 +100,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 
 import equinox as eqx
@@ -584,18 +588,18 @@ def _solve_compiled(transport, rho, b0, solver, rtol, max_steps, correct_rows, t
             result = eqx.tree_at(lambda r: r._value, lx.RESULTS.successful, out["result"])
             return (out["b"], out["iterations"], out["residual"], result, out["escaped"],
                     stats)
-    return (_solve_jit if options is None else _solve_jit_small)(*args)
+    return (_solve_jit if options is None else _solve_jit_small())(*args)
 
 
 def compiler_options(transport, b0) -> dict | None:
     """XLA's options for one compiled program that applies ``transport`` to ``b0`` (padded
-    patches × columns): :data:`SMALL_SOLVE_OPTIONS` where compiling costs more than running
+    patches × columns): :func:`small_solve_options` where compiling costs more than running
     (an operator of at most :data:`SMALL_OPERATOR_BYTES`, at most :data:`SMALL_SOLVE`
     values; module docstring, "Small solves"), else none. The solve and the patch output's
     product (``lighting._solution``) both ask here."""
     small = (transport.nbytes <= SMALL_OPERATOR_BYTES
              and int(np.prod(np.shape(b0))) <= SMALL_SOLVE)
-    return SMALL_SOLVE_OPTIONS if small else None
+    return small_solve_options() if small else None
 
 
 def _solve_packed(*args) -> dict:
@@ -644,12 +648,12 @@ def _solve_body(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=N
 
 SMALL_SOLVE = 1 << 18
 """Most values (padded patches × columns) of a solve compiled with
-:data:`SMALL_SOLVE_OPTIONS` (module docstring, "Small solves"): the largest measured, the
+:func:`small_solve_options` (module docstring, "Small solves"): the largest measured, the
 demo's 3,584 × 60, under it."""
 
 SMALL_OPERATOR_BYTES = 128 << 20
 """Largest operator (``TransportOperator.nbytes``) of a solve compiled with
-:data:`SMALL_SOLVE_OPTIONS` (module docstring, "Small solves"): between the office's 63 MB
+:func:`small_solve_options` (module docstring, "Small solves"): between the office's 63 MB
 (unoptimised 0.7 s faster cold, 0.05 s slower warm) and the 10 k-patch cube's 231 MB (0.4 s
 slower warm, no faster cold)."""
 
@@ -659,13 +663,20 @@ steps when the caller asks for progress (``_progress``; ≈ 10⁵ patches × 40 
 second a product here): a smaller one is over before a report could help, and keeps its
 stored executable (a program with host callbacks is not stored)."""
 
-SMALL_SOLVE_OPTIONS = _executables.UNOPTIMISED
-"""XLA's options for a small solve: LLVM's optimisation passes off."""
+def small_solve_options() -> dict:
+    """XLA's options for a small solve: LLVM's optimisation passes off, and XLA's older
+    fusion emitters where it has them (:func:`lumijax._executables.unoptimised`)."""
+    return _executables.unoptimised()
+
 
 _solve_jit = eqx.filter_jit(_solve_body)
-# equinox passes keyword arguments on to jax.jit; its typed overloads do not list them
-_solve_jit_small = eqx.filter_jit(  # type: ignore[call-overload]
-    _solve_body, compiler_options=SMALL_SOLVE_OPTIONS)
+
+
+@functools.cache
+def _solve_jit_small():
+    # equinox passes keyword arguments on to jax.jit; its typed overloads do not list them
+    return eqx.filter_jit(  # type: ignore[call-overload]
+        _solve_body, compiler_options=small_solve_options())
 
 
 def _residual(op: ReflectionOperator, b0, b):

@@ -54,20 +54,20 @@ def test_small_solves_compile_unoptimised_and_large_ones_optimised():
     from lumijax.radiosity._solve import (
         SMALL_OPERATOR_BYTES,
         SMALL_SOLVE,
-        SMALL_SOLVE_OPTIONS,
         compiler_options,
+        small_solve_options,
     )
 
     def op(mb):
         return SimpleNamespace(nbytes=int(mb * 1e6))
 
     assert SMALL_SOLVE == 262_144 and SMALL_OPERATOR_BYTES == 134_217_728
-    assert compiler_options(op(13), np.zeros((1280, 3))) is SMALL_SOLVE_OPTIONS
-    assert compiler_options(op(31), np.zeros((3584, 60))) is SMALL_SOLVE_OPTIONS
-    assert compiler_options(op(63), np.zeros((5120, 4))) is SMALL_SOLVE_OPTIONS
+    assert compiler_options(op(13), np.zeros((1280, 3))) is small_solve_options()
+    assert compiler_options(op(31), np.zeros((3584, 60))) is small_solve_options()
+    assert compiler_options(op(63), np.zeros((5120, 4))) is small_solve_options()
     assert compiler_options(op(231), np.zeros((10_240, 1))) is None  # the operator decides
     assert compiler_options(op(31), np.zeros((3584, 60, 2))) is None  # the columns decide
-    assert compiler_options(op(1), np.zeros((106_496, 1))) is SMALL_SOLVE_OPTIONS
+    assert compiler_options(op(1), np.zeros((106_496, 1))) is small_solve_options()
 
 
 def test_a_small_solve_asks_for_the_unoptimised_program_and_a_traced_one_does_not(
@@ -77,7 +77,7 @@ def test_a_small_solve_asks_for_the_unoptimised_program_and_a_traced_one_does_no
     import jax
 
     from lumijax import _executables
-    from lumijax.radiosity._solve import SMALL_SOLVE_OPTIONS
+    from lumijax.radiosity._solve import small_solve_options
 
     p, _, op = cube_room
     asked, real = [], _executables.call
@@ -92,7 +92,23 @@ def test_a_small_solve_asks_for_the_unoptimised_program_and_a_traced_one_does_no
     rho = jnp.full(p.n, 0.9)
     b0 = jnp.asarray(np.random.default_rng(0).uniform(0.0, 100.0, (p.n, 3)))
     plain = solve_radiosity(op, rho, b0, rtol=1e-11)
-    assert asked == [SMALL_SOLVE_OPTIONS]
+    assert asked == [small_solve_options()]
     traced = jax.jit(lambda r: solve_radiosity(op, r, b0, rtol=1e-11).value)(rho)
     assert asked[1:] in ([], [None])  # a traced call is not for the cache, nor for the options
     np.testing.assert_allclose(np.asarray(traced), np.asarray(plain.value), rtol=1e-12)
+
+
+def test_the_small_programs_options_compile_and_an_unknown_option_is_left_out(monkeypatch):
+    # lumijax._executables.unoptimised: the legacy fusion emitters only where XLA knows the
+    # switch (an unknown option fails the compile: XLA is retiring that path)
+    import jax
+
+    from lumijax import _executables
+
+    opts = _executables.unoptimised()
+    assert opts["xla_backend_optimization_level"] == 0
+    x = np.linspace(0.0, 1.0, 7, dtype=np.float32)
+    got = jax.jit(lambda v: jnp.cumsum(v * v), compiler_options=opts)(x)
+    np.testing.assert_allclose(np.asarray(got), np.cumsum(x * x), rtol=1e-6)
+    monkeypatch.setattr(_executables, "LEGACY_EMITTERS", "xla_cpu_no_such_option_here")
+    assert _executables.unoptimised.__wrapped__() == _executables.UNOPTIMISED
