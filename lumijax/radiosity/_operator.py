@@ -372,7 +372,7 @@ DENSE_PATCHES = 4096
 def densified(op: TransportOperator, n_patches: int | None = None) -> TransportOperator | None:
     """``op`` as one dense block of ``G`` over ``n_patches`` (≥ ``op.n_patches``; the rest
     exchange nothing), or None where that is not for it: more than :data:`DENSE_PATCHES`
-    patches, a sampled (non-symmetric) bucket, or values inside a trace.
+    patches, a sampled (non-symmetric) bucket, or inside a JAX trace (:func:`_tracing`).
 
     A small study's solve compiles for far longer than it runs, and its program holds one
     ``lax.scan`` per bucket in every product; one block is one BLAS product, whose program
@@ -381,19 +381,23 @@ def densified(op: TransportOperator, n_patches: int | None = None) -> TransportO
     optimisation passes. Sums run in another order: the answer moves by rounding only.
     """
     n = op.n_patches if n_patches is None else int(n_patches)
-    leaves = jax.tree.leaves(op)
     if (n > DENSE_PATCHES or n < op.n_patches or any(not bk.symmetric for bk in op.buckets)
-            or any(isinstance(x, jax.core.Tracer) for x in leaves)):
+            or _tracing()):
         return None
     kept = _DENSIFIED.get((id(op), n))
     if kept is not None and kept[0]() is op:  # the solve's, asked again by the patch product
         return kept[1]
     one = _densified(op, n)
-    # inside a trace its arrays are the trace's constants (tracers): not for another trace
-    if not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(one)):
-        _DENSIFIED[(id(op), n)] = (weakref.ref(op), one)
-        weakref.finalize(op, _DENSIFIED.pop, (id(op), n), None)  # kept as long as op lives
+    _DENSIFIED[(id(op), n)] = (weakref.ref(op), one)
+    weakref.finalize(op, _DENSIFIED.pop, (id(op), n), None)  # kept as long as op lives
     return one
+
+
+def _tracing() -> bool:
+    """Whether a JAX trace is being built here (a host array brought in becomes a tracer).
+    A block made inside one would enter the program as a literal constant of up to 64 MiB,
+    so a traced solve (``jit``, ``grad``) keeps the buckets."""
+    return isinstance(jnp.asarray(np.zeros((), np.float32)), jax.core.Tracer)
 
 
 #: ``(id(op), n)`` → (a weak reference to op, its :func:`densified`).

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -257,3 +258,7 @@ def test_one_dense_block_holds_every_bucket(plates):
                                atol=1e-7 * np.abs(f).max())
     assert not f[p.n:].any() and not f[:, p.n:].any()
     assert densified(op, p.n - 1) is None  # fewer patches than it has: refused
+    assert densified(op, p.n + 40) is one  # kept while op lives: the solve's, for the product
+    seen = []  # inside a trace the buckets stay (a block would enter as a literal constant)
+    jax.jit(lambda x: (seen.append(densified(op, p.n)), x)[1])(1.0)
+    assert seen == [None]
