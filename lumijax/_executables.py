@@ -44,8 +44,8 @@ import warnings
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["MAGIC", "SUFFIX", "UNOPTIMISED", "LEGACY_EMITTERS", "unoptimised", "call",
-           "store_dir", "source_digest", "stored"]
+__all__ = ["MAGIC", "SUFFIX", "UNOPTIMISED", "LEGACY_EMITTERS", "unoptimised",
+           "quick_to_compile", "call", "store_dir", "source_digest", "stored"]
 
 #: XLA's options for a program that runs about once per process and is small: LLVM's
 #: optimisation passes off (compiling then costs more than running; radiosity/_solve.py,
@@ -56,24 +56,47 @@ UNOPTIMISED = {"xla_backend_optimization_level": 0}
 #: XLA:CPU's switch from its MLIR fusion emitters back to the LLVM IR ones, off: a small
 #: program's fusions compile in half the time (the furnished room's solve 1.0–1.1 → 0.45–0.49
 #: s, session 20). For every program (``XLA_FLAGS``) it was measured and not taken: the direct
-#: light's kernel ran 10–25 % slower (``benchmarks/direct.py``, 100 × 10⁵).
+#: light's kernel ran 10–25 % slower (``benchmarks/direct.py``, 100 × 10⁵), the contour
+#: kernel ~9 % (4,096 points a call: 1.99 → 2.17 ms, the same bits).
 LEGACY_EMITTERS = "xla_cpu_use_fusion_emitters"
 
 
-@functools.cache
 def unoptimised() -> dict:
-    """:data:`UNOPTIMISED`, with :data:`LEGACY_EMITTERS` off where this XLA knows the option
-    (XLA is retiring that path: an option it does not know fails the compile, so a one-off
-    compile of a trivial program asks first, ~20 ms)."""
+    """:data:`UNOPTIMISED`, with :data:`LEGACY_EMITTERS` off where this XLA knows the option:
+    for programs that run about once per process."""
+    return _options(True, LEGACY_EMITTERS)  # type: ignore[return-value]
+
+
+def quick_to_compile() -> dict | None:
+    """:data:`LEGACY_EMITTERS` off where this XLA knows the option, LLVM's passes kept (None
+    where it does not): for a kernel a small study calls a few times, which runs at most
+    ~10-25 % slower and compiles in about half the time (``contour_flat`` 0.44–0.60 →
+    0.19–0.20 s)."""
+    return _options(False, LEGACY_EMITTERS)
+
+
+@functools.cache
+def _options(unoptimised: bool, legacy: str) -> dict | None:
+    options = dict(UNOPTIMISED) if unoptimised else {}
+    if _accepts(legacy):
+        options[legacy] = False
+    return options or None
+
+
+@functools.cache
+def _accepts(option: str) -> bool:
+    """Whether XLA takes ``option`` (off): XLA is retiring the legacy emitters, and an option
+    it does not know fails the compile, so a one-off compile of a trivial program asks first
+    (~20 ms, once per process)."""
     import jax
     import numpy as np
 
-    options = {**UNOPTIMISED, LEGACY_EMITTERS: False}
     try:
-        jax.jit(lambda x: x + 1, compiler_options=options).lower(np.float32(0)).compile()
+        jax.jit(lambda x: x + 1, compiler_options={option: False}).lower(np.float32(0)).compile()
     except Exception:  # jaxlib's runtime error: "No such compile option"
-        return dict(UNOPTIMISED)
-    return options
+        return False
+    return True
+
 
 MAGIC = b"lumijax-executable-1\n"
 SUFFIX = ".ljxc"

@@ -178,10 +178,22 @@ def _far_field(patches, part, s: FormFactorSettings, caster, triangles, diam, co
 _BATCH = 4096
 
 
-@_executables.stored("contour_flat", "radiosity/_build.py", "kernels/")
-def _contour_flat(q, n, tri):
+def _contour_kernel(q, n, tri):
     """Point→triangle factors for (M,) receiver points q, normals n and triangles tri."""
     return form_factor_point_triangle(q, n, tri)
+
+
+_contour_flat = _executables.stored("contour_flat", "radiosity/_build.py", "kernels/")(
+    _contour_kernel)
+#: The same kernel for a small build (at most :data:`QUICK_BUILD_PATCHES` patches), compiled
+#: quickly (:func:`lumijax._executables.quick_to_compile`): a small study compiles it once and
+#: calls it a few times (the cube's first run: 0.43 s of its compiling), a large one calls it
+#: for minutes and keeps XLA's faster code (~9 %).
+_contour_flat_quick = _executables.stored(
+    "contour_flat", "radiosity/_build.py", "kernels/",
+    options=lambda *args: _executables.quick_to_compile())(_contour_kernel)
+
+QUICK_BUILD_PATCHES = 4096
 
 
 def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
@@ -193,7 +205,7 @@ def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
     )
 
 
-def _contour_start(q, n, tri):
+def _contour_start(q, n, tri, kernel=_contour_flat):
     """Dispatch the factors of each pair's receiver points q (N, Q, 3) to tri (N, 3, 3): the
     kernel calls run while the caller works on (JAX's asynchronous dispatch); finish with
     :func:`_contour_mean`."""
@@ -210,12 +222,12 @@ def _contour_start(q, n, tri):
     for s in range(0, len(qf), _BATCH):
         m = min(_BATCH, len(qf) - s)
         if m == _BATCH:  # a full batch: no padded copy
-            calls.append(_contour_flat(qf[s : s + m], nf[s : s + m], tf[s : s + m]))
+            calls.append(kernel(qf[s : s + m], nf[s : s + m], tf[s : s + m]))
         else:
             qp, tp, npd = (np.zeros((_BATCH, 3), ft), np.zeros((_BATCH, 3, 3), ft),
                            np.zeros((_BATCH, 3), ft))
             qp[:m], tp[:m], npd[:m] = qf[s : s + m], tf[s : s + m], nf[s : s + m]
-            calls.append(_contour_flat(qp, npd, tp))
+            calls.append(kernel(qp, npd, tp))
     return calls, npair, nq
 
 
@@ -251,14 +263,15 @@ def _near_pairs_start(p: Patches, i, j, s: FormFactorSettings, caster, counters)
     r = d / np.maximum(p.diameter[i], p.diameter[j])
     close = r < s.close_ratio * (1 + _TIE)
     parts = []
+    kernel = _contour_flat_quick if p.n <= QUICK_BUILD_PATCHES else _contour_flat
     for sel, nsub, rays in ((close, s.close_subdiv, s.close_rays), (~close, s.mid_subdiv, s.mid_rays)):
         ii, jj = i[sel], j[sel]
         if not len(ii):
             continue
         qi = _quad_points(p.vertices[ii], nsub)
         qj = _quad_points(p.vertices[jj], nsub)
-        f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj])
-        f_ji = _contour_start(qj, p.normal[jj], p.vertices[ii]) if s.symmetrise else None
+        f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj], kernel)
+        f_ji = _contour_start(qj, p.normal[jj], p.vertices[ii], kernel) if s.symmetrise else None
         parts.append((sel, ii, jj, qi, qj, rays, f_ij, f_ji))
 
     def finish() -> np.ndarray:

@@ -15,13 +15,16 @@ from .conftest import room
 
 def test_rooms_of_different_patch_counts_call_the_kernel_in_one_shape(monkeypatch):
     shapes = []
-    kernel = _build._contour_flat
 
-    def spy(q, n, tri):
-        shapes.append((q.shape, n.shape, tri.shape))
-        return kernel(q, n, tri)
+    def spy(kernel):
+        def call(q, n, tri):
+            shapes.append((q.shape, n.shape, tri.shape))
+            return kernel(q, n, tri)
+        return call
 
-    monkeypatch.setattr(_build, "_contour_flat", spy)
+    # a small build calls the quickly compiled variant (_build.QUICK_BUILD_PATCHES)
+    for name in ("_contour_flat", "_contour_flat_quick"):
+        monkeypatch.setattr(_build, name, spy(getattr(_build, name)))
     counts = []
     for size in (0.3, 0.17):
         p, _, op = room(trimesh.creation.box(extents=(1.0, 1.0, 1.0)), size)

@@ -110,5 +110,10 @@ def test_the_small_programs_options_compile_and_an_unknown_option_is_left_out(mo
     x = np.linspace(0.0, 1.0, 7, dtype=np.float32)
     got = jax.jit(lambda v: jnp.cumsum(v * v), compiler_options=opts)(x)
     np.testing.assert_allclose(np.asarray(got), np.cumsum(x * x), rtol=1e-6)
+    quick = _executables.quick_to_compile()
+    if quick is not None:  # this XLA has the switch: only it, LLVM's passes kept
+        assert quick == {_executables.LEGACY_EMITTERS: False}
+        assert opts == {**_executables.UNOPTIMISED, **quick}
     monkeypatch.setattr(_executables, "LEGACY_EMITTERS", "xla_cpu_no_such_option_here")
-    assert _executables.unoptimised.__wrapped__() == _executables.UNOPTIMISED
+    assert _executables.unoptimised() == _executables.UNOPTIMISED
+    assert _executables.quick_to_compile() is None
