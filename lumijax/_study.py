@@ -117,6 +117,7 @@ def check_memory(study: Study):
         patch_size_of,
         requested_patches,
     )
+    from .lighting._settings import block_size
     from .radiosity import mesh_patches
     from .radiosity._estimate import bound_operator_memory
 
@@ -135,7 +136,8 @@ def check_memory(study: Study):
         return bound_sampled_memory(patches.n, settings.rays_per_patch, itemsize=itemsize,
                                     file=study.config.source)
     estimate, _ = bound_operator_memory(
-        patches, max_block=settings.max_block, itemsize=itemsize, caster=study.scene.raycaster,
+        patches, max_block=block_size(settings.max_block, patches.n), itemsize=itemsize,
+        caster=study.scene.raycaster,
         triangles=len(tri), two_levels=fine is not None, file=study.config.source,
         patch_size=None if fine is not None else size,
         requested=settings.operator_patches if fine is not None else requested_patches(

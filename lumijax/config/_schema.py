@@ -535,7 +535,8 @@ class SolverConfig(_Model):
     # count against an accuracy target"); a number: about that many, as before the rule
     target_patches: Annotated[int, Field(ge=10, le=10_000_000)] | None = None
     accuracy: Annotated[float, Field(ge=1e-4, le=0.5)] = 0.01
-    max_block: Annotated[int, Field(ge=16, le=8192)] = 1024
+    # None: by the patch count (lighting._settings.block_size: 384 up to 4,096, else 1,024)
+    max_block: Annotated[int, Field(ge=16, le=8192)] | None = None
     method: RadiosityMethodName = "refined"
     tolerance: Annotated[float, Field(gt=0, lt=1)] | None = None
     max_iterations: Annotated[int, Field(ge=1)] = 1000

@@ -43,9 +43,11 @@ from ..radiosity._final_gather import FineLevel, element_direct, final_gather
 from ..scene import AreaSource, Luminaire, Network, Scene
 from ..spectral import Spectrum
 from ._settings import (
+    DEFAULT_MAX_BLOCK,
     SolverSettings,
     accuracy_patch_size,
     auto_patch_size,
+    block_size,
     mean_free_path,
     source_distance,
 )
@@ -312,8 +314,9 @@ def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
     dtype = np.float64 if settings.precision == "float64" else np.float32
     if settings.transport == "sampled":
         return _sampled_transport(scene, patches, settings, dtype, cache_dir, t, report)
+    max_block = block_size(settings.max_block, patches.n)
     estimate, part = bound_operator_memory(
-        patches, max_block=settings.max_block, itemsize=np.dtype(dtype).itemsize,
+        patches, max_block=max_block, itemsize=np.dtype(dtype).itemsize,
         caster=caster, triangles=len(tri), two_levels=fine is not None,
         file=scene.source, patch_size=None if fine is not None else meshed.patch_size_m,
         requested=settings.operator_patches if fine is not None else requested_patches(
@@ -326,13 +329,13 @@ def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
         t = time.perf_counter()
         operator, hit = cached_operator(
             patches, tri.vertices, cache_dir=cache_dir, dtype=dtype, caster=caster,
-            partition_settings=PartitionSettings(max_block=settings.max_block),
+            partition_settings=PartitionSettings(max_block=max_block),
         )
         hit = bool(hit)
     else:
         t = time.perf_counter()
         if part is None:
-            part = partition(patches, max_block=settings.max_block, occluders=caster)
+            part = partition(patches, max_block=max_block, occluders=caster)
         partition_s = time.perf_counter() - t
         t = time.perf_counter()
         operator = build_operator(patches, part, caster, dtype=dtype,
@@ -627,7 +630,7 @@ def _check_before_meshing(scene: Scene, tri, size: float, settings: SolverSettin
         esize = esize if esize > size else None
     check_before_meshing(tri.vertices, tri.group, size, element_size=esize,
                          itemsize=8 if settings.precision == "float64" else 4,
-                         max_block=settings.max_block, file=scene.source,
+                         max_block=settings.max_block or DEFAULT_MAX_BLOCK, file=scene.source,
                          dense=settings.transport != "sampled")
 
 

@@ -29,7 +29,7 @@ from ..kernels import far_g, form_factor_point_triangle, rounding_length, triang
 from ..parallel import Executor, batches, current_executor, threaded_map
 from ._hierarchy import cluster_tree, walk_block_tree
 from ._lowrank import Obstacles, aca_block, block_spheres, truncate_block, well_separated
-from ._operator import Bucket, Info, LowRankBucket, TransportOperator
+from ._operator import DENSE_PATCHES, Bucket, Info, LowRankBucket, TransportOperator
 from ._partition import Partition
 from ._patches import Patches, _template
 
@@ -185,7 +185,8 @@ def _contour_kernel(q, n, tri):
 
 _contour_flat = _executables.stored("contour_flat", "radiosity/_build.py", "kernels/")(
     _contour_kernel)
-#: The same kernel for a small build (at most :data:`QUICK_BUILD_PATCHES` patches), compiled
+#: The same kernel for a small build (at most :data:`~._operator.DENSE_PATCHES` patches: the
+#: studies whose solve is one dense block, and whose blocks are small), compiled
 #: quickly (:func:`lumijax._executables.quick_to_compile`): a small study compiles it once and
 #: calls it a few times (the cube's first run: 0.43 s of its compiling), a large one calls it
 #: for minutes and keeps XLA's faster code (~9 %).
@@ -193,7 +194,6 @@ _contour_flat_quick = _executables.stored(
     "contour_flat", "radiosity/_build.py", "kernels/",
     options=lambda *args: _executables.quick_to_compile())(_contour_kernel)
 
-QUICK_BUILD_PATCHES = 4096
 
 
 def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
@@ -263,7 +263,7 @@ def _near_pairs_start(p: Patches, i, j, s: FormFactorSettings, caster, counters)
     r = d / np.maximum(p.diameter[i], p.diameter[j])
     close = r < s.close_ratio * (1 + _TIE)
     parts = []
-    kernel = _contour_flat_quick if p.n <= QUICK_BUILD_PATCHES else _contour_flat
+    kernel = _contour_flat_quick if p.n <= DENSE_PATCHES else _contour_flat
     for sel, nsub, rays in ((close, s.close_subdiv, s.close_rays), (~close, s.mid_subdiv, s.mid_rays)):
         ii, jj = i[sel], j[sel]
         if not len(ii):

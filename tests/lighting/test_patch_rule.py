@@ -105,3 +105,16 @@ def test_office_lamps_near_the_ceiling_hit_the_cap(write_study):
     assert patch_size_of(study.scene, solver_settings(study)) == auto_patch_size(
         area, AUTO_PATCH_CAP)
     assert np.isclose(source_distance(study.scene), 0.2, rtol=1e-5)
+
+
+def test_block_size_follows_the_patch_count_unless_given():
+    # lighting._settings.block_size: a study whose solve is one dense block partitions in
+    # blocks of 384, a larger one of 1,024; a [solver] max_block the user gives always wins
+    from lumijax.config import parse_config
+    from lumijax.lighting._settings import block_size
+    from lumijax.radiosity._operator import DENSE_PATCHES
+
+    assert block_size(None, 1728) == 384 and block_size(None, DENSE_PATCHES) == 384
+    assert block_size(None, DENSE_PATCHES + 1) == 1024
+    assert block_size(64, 1728) == 64 and block_size(2048, 100_000) == 2048
+    assert parse_config("[study]\nname = 'x'\n").solver.max_block is None

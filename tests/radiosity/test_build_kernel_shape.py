@@ -22,7 +22,7 @@ def test_rooms_of_different_patch_counts_call_the_kernel_in_one_shape(monkeypatc
             return kernel(q, n, tri)
         return call
 
-    # a small build calls the quickly compiled variant (_build.QUICK_BUILD_PATCHES)
+    # a small build calls the quickly compiled variant (radiosity._operator.DENSE_PATCHES)
     for name in ("_contour_flat", "_contour_flat_quick"):
         monkeypatch.setattr(_build, name, spy(getattr(_build, name)))
     counts = []
