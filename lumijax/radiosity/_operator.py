@@ -365,7 +365,7 @@ class TransportOperator(eqx.Module):
 
 
 #: The most patches (padded) whose operator :func:`densified` makes one dense block: 4,096²
-#: float32 values are 64 MiB.
+#: values are 64 MiB in float32 (a float64 study's, 128 MiB), held while the operator lives.
 DENSE_PATCHES = 4096
 
 
