@@ -195,7 +195,6 @@ _contour_flat_quick = _executables.stored(
     options=lambda *args: _executables.quick_to_compile())(_contour_kernel)
 
 
-
 def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
     """Sub-triangle centroids (N, nsub², 3): an equal-weight rule on each triangle."""
     w = _template(nsub).mean(axis=1)  # (Q, 2) barycentric (w1, w2) of the centroids

@@ -62,8 +62,9 @@ in new processes: the demo's solve stage, every cache empty, 2.71 / 2.58 s → 1
 the furnished room's solve compiled in 0.82 s against 1.09 s. Since then the small solve
 also asks for XLA's older (LLVM IR) fusion emitters where XLA still has them
 (:data:`lumijax._executables.LEGACY_EMITTERS`): the furnished room's solve, every cache
-empty, compiled in 0.45–0.49 s against 1.0–1.1 s (three runs each). The answers agree to rounding (largest difference
-3·10⁻¹⁶ of the largest value in float64, 3·10⁻⁷ in float32, on cube rooms).
+empty, compiled in 0.45–0.49 s against 1.0–1.1 s (three runs each). The answers agree to
+rounding (largest difference 3·10⁻¹⁶ of the largest value in float64, 3·10⁻⁷ in float32, on
+cube rooms).
 
 **Lazy fallback.** The default solver (``Refined``: iterative refinement around BiCGStab, GMRES
 taking over after two failed inner solves) is one program with both Krylov methods in it, and
