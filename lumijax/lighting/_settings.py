@@ -57,10 +57,9 @@ class SolverSettings:
 
 
 #: ``[solver] max_block`` when not given: :data:`SMALL_MAX_BLOCK` up to
-#: :data:`SMALL_BUILD_PATCHES` patches, else :data:`DEFAULT_MAX_BLOCK`.
+#: ``radiosity._operator.DENSE_PATCHES`` patches, else :data:`DEFAULT_MAX_BLOCK`.
 DEFAULT_MAX_BLOCK = 1024
 SMALL_MAX_BLOCK = 384
-SMALL_BUILD_PATCHES = 4096
 
 
 def block_size(max_block: int | None, n_patches: int) -> int:
@@ -78,9 +77,11 @@ def block_size(max_block: int | None, n_patches: int) -> int:
     grazing a column's edge may differ by direction (Embree is float32; not traced further).
     Above, the block structure is the solve's too and 1,024 stays (the 4,960-patch office
     built in 1.6 s against 2.2 s, but its operator grew from 63 to 96 MB)."""
+    from ..radiosity._operator import DENSE_PATCHES  # here: this module imports no JAX
+
     if max_block is not None:
         return int(max_block)
-    return SMALL_MAX_BLOCK if n_patches <= SMALL_BUILD_PATCHES else DEFAULT_MAX_BLOCK
+    return SMALL_MAX_BLOCK if n_patches <= DENSE_PATCHES else DEFAULT_MAX_BLOCK
 
 
 def auto_patch_size(total_area_m2: float, target_patches: int) -> float:
