@@ -29,6 +29,7 @@ import io
 import json
 import warnings
 import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
@@ -37,10 +38,11 @@ from typing import Any
 import numpy as np
 
 from ._atomic import atomic_path
+from ._dimmers import DEFAULT as DIMMER_DEFAULT
 from .errors import LumijaxWarning, OutputError
 
 __all__ = ["StoredSolution", "solution_key", "solution_path", "store_solution",
-           "load_solution", "MAX_PATCH_BYTES"]
+           "load_solution", "code_digest", "file_digest", "prune", "KEEP", "MAX_PATCH_BYTES"]
 
 FORMAT = "lumijax-solution-1"
 
@@ -65,7 +67,7 @@ _NUMBERS_IN_REPORT = ("report/_vtk.py",)
 
 
 @functools.cache
-def _code_digest() -> str:
+def code_digest() -> str:
     """SHA-256 of the source of every lumijax module that computes the numbers, and the
     versions of JAX, jaxlib and numpy: an edited module (an editable install) or an upgrade
     is a new key."""
@@ -84,15 +86,26 @@ def _code_digest() -> str:
     return h.hexdigest()
 
 
-def _keyed(value: Any, h) -> Any:
-    """The config dump as JSON-able values; every existing file it names adds its bytes."""
+def file_digest(path: Path) -> str | None:
+    """SHA-256 hex of the file's bytes; None where ``path`` is not a readable file."""
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
+    except OSError:
+        return None
+
+
+def _keyed(value: Any, h, files: dict[str, str | None]) -> Any:
+    """The config dump as JSON-able values; every existing file it names adds its bytes (and
+    its digest to ``files``, by path: what ``lumijax._recorded`` checks instead)."""
     if isinstance(value, dict):
-        return {str(k): _keyed(v, h) for k, v in value.items()}
+        return {str(k): _keyed(v, h, files) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_keyed(v, h) for v in value]
+        return [_keyed(v, h, files) for v in value]
     if isinstance(value, Path):
-        if value.is_file():
-            h.update(str(value).encode() + b"\0" + value.read_bytes())
+        digest = file_digest(value)
+        if digest is not None:
+            h.update(str(value).encode() + b"\0" + digest.encode())
+        files[str(value)] = digest
         return str(value)
     if isinstance(value, np.ndarray):  # its bytes: numpy's repr elides long arrays
         a = np.ascontiguousarray(value)
@@ -102,20 +115,22 @@ def _keyed(value: Any, h) -> Any:
     return repr(value)
 
 
-def solution_key(config, *, shadows: bool = True, full: bool = False) -> str:
+def solution_key(config, *, shadows: bool = True, full: bool = False,
+                 files: dict[str, str | None] | None = None) -> str:
     """SHA-256 hex of everything that decides a study's per-network light except its dimmers.
 
     ``config``: the validated :class:`~lumijax.config.StudyConfig` as the run uses it (after
     ``--quick``'s change to ``[solver]``); ``shadows``: the run's ``--no-shadows`` negated;
     ``full``: a full numbers run's solution (with patches.vtp's arrays), which a ``--quick``
     run's (grids only) never stands for, nor the other way round, even where the config is
-    the same (a study that sets ``spectral_samples = 0`` itself).
+    the same (a study that sets ``spectral_samples = 0`` itself); ``files``, if given, gets
+    the SHA-256 of every path the config names (None: not a file).
     """
     dump = config.model_dump(mode="python")
     for net in dump.get("networks", {}).values():
         net.pop("dimmer", None)  # the one thing a rerun may change
-    h = hashlib.sha256(_code_digest().encode())
-    doc = _keyed(dump, h)
+    h = hashlib.sha256(code_digest().encode())
+    doc = _keyed(dump, h, {} if files is None else files)
     h.update(json.dumps({"config": doc, "shadows": bool(shadows),
                          "mode": "full" if full else "quick"}, sort_keys=True).encode())
     return h.hexdigest()
@@ -140,11 +155,11 @@ class StoredSolution:
     def networks(self) -> tuple[str, ...]:
         return tuple(self.document["networks"])
 
-    def dimmers_of(self, config) -> np.ndarray:
-        """The config's dimmer of each stored network (1 for one without a ``[networks]``
-        entry, as the scene gives it)."""
-        nets = config.networks
-        return np.array([nets[n].dimmer if n in nets else 1.0 for n in self.networks])
+    def dimmers_of(self, dimmers: Mapping[str, float]) -> np.ndarray:
+        """Each stored network's dimmer from ``dimmers`` (by network name: the config's), and
+        the default (``lumijax._dimmers``) for one without a ``[networks]`` entry, as the
+        scene gives it."""
+        return np.array([dimmers.get(n, DIMMER_DEFAULT) for n in self.networks])
 
     def grid_results(self, dimmers) -> dict:
         """Each grid as a :class:`~lumijax.results.GridResult` at ``dimmers``."""
@@ -204,15 +219,15 @@ def store_solution(results, cache_dir: str | Path, key: str,
         warnings.warn(f"cannot keep the solution for dimmer-only reruns ({e}); the next run "
                       "computes again", LumijaxWarning, stacklevel=2)
         return None
-    _prune(path.parent)
+    prune(path.parent)
     return path
 
 
-def _prune(folder: Path) -> None:
-    """Remove all but the :data:`KEEP` newest solutions in ``folder`` (a reader that loses
-    its file to this finds none and computes)."""
+def prune(folder: Path, pattern: str = "solution-*.npz") -> None:
+    """Remove all but the :data:`KEEP` newest files of ``pattern`` in ``folder`` (a reader
+    that loses its file to this finds none and computes)."""
     try:
-        found = [(p.stat().st_mtime, p) for p in folder.glob("solution-*.npz")]
+        found = [(p.stat().st_mtime, p) for p in folder.glob(pattern)]
     except OSError:
         return
     for _, p in sorted(found, reverse=True)[KEEP:]:

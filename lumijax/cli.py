@@ -19,6 +19,7 @@ import sys
 import time
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 __all__ = ["main"]
 
@@ -183,16 +184,28 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
 
         scheduler = connect(scheduler)
     t0 = time.perf_counter()  # before the imports: a rerun's budget is end to end
-    from .config import load_config
+    from ._recorded import read_study
     from .report._write import ResultSet
 
-    # wall time (s) of this run's steps (--timings); the config's schema (pydantic) first
-    marks: dict[str, float] = {"import_config": time.perf_counter() - t0}
+    # the study's text, read once: a numbers run whose file was recorded by an earlier run
+    # answers without the config's schema (lumijax._recorded)
+    study_file = read_study(config, {"quick": quick, "shadows": shadows, "optimise": optimise})
+    marks: dict[str, float] = {}  # wall time (s) of this run's steps (--timings)
     # The folder is locked from the start (a second run into it stops at once, not after its
     # compute), and every file, the report included, is staged and swapped in as one set.
     with ResultSet(out) as rs:
+        if (study_file is not None and study_file.key is not None and not images
+                and not report and _recorded_rerun(
+                    study_file, config, cache_dir, rs, out, config_s=time.perf_counter() - t0,
+                    startup=startup, t0=t0, timings=timings, console=console)):
+            return 0
         t = time.perf_counter()
-        cfg = load_config(config)
+        from .config import load_config, parse_config
+
+        marks["import_config"] = time.perf_counter() - t  # the config's schema (pydantic)
+        t = time.perf_counter()
+        cfg = (load_config(config) if study_file is None
+               else parse_config(study_file.text, source=config))
         if quick:
             cfg = _quick_config(cfg)
         config_s = time.perf_counter() - t
@@ -200,8 +213,10 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         # numbers only (results.json, CSV, patches.vtp) can come from the store; images and
         # the report need the scene, so such a run computes (and stores for the next one)
         if (kept is not None and not images and not report
-                and _rerun(kept, cfg, rs, out, config_s=config_s, startup=startup, t0=t0,
-                           timings=timings, console=console)):
+                and _rerun(kept.folder, kept.key, _dimmers_of(cfg), rs, out,
+                           config_s=config_s, startup=startup, t0=t0, timings=timings,
+                           console=console)):
+            _record(kept, study_file)
             return 0
         t = time.perf_counter()
         _compilation_cache()
@@ -224,11 +239,11 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         marks["compute"] = time.perf_counter() - t
         stored_patches = None  # a full run's patch arrays, figured while the files are written
         if kept is not None:  # the next run that changes only dimmers reads this back
-            from ._stored import MAX_PATCH_BYTES, store_solution
+            from ._stored import MAX_PATCH_BYTES
 
             t = time.perf_counter()
             if quick or results.lighting.coarse.patches is None:
-                store_solution(results, *kept)
+                _keep(results, kept, study_file)
             else:
                 from .report._vtk import patch_arrays, patch_bytes
                 from .report._write import _in_thread
@@ -253,7 +268,7 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
         marks["write"] = time.perf_counter() - t
         if stored_patches is not None and kept is not None:
             t = time.perf_counter()
-            store_solution(results, *kept, patches=stored_patches.result())
+            _keep(results, kept, study_file, patches=stored_patches.result())
             marks["store"] += time.perf_counter() - t
         _summary_table(results.study, results.grids, console)
         if results.optimisation is not None:
@@ -283,13 +298,22 @@ def _run(config: Path, out: Path, *, images: bool, shadows: bool, console,
     return 0
 
 
+class _Kept(NamedTuple):
+    """A study's stored solution: its cache folder, its key, and the SHA-256 of every path
+    its config names (what a record of the study file checks instead: ``lumijax._recorded``)."""
+
+    folder: Path
+    key: str
+    files: dict[str, str | None]
+
+
 def _kept_solution(cfg, cache_dir: Path | None, *, quick: bool, optimise: bool,
-                   shadows: bool) -> tuple[Path, str] | None:
-    """``(cache folder, key)`` of the study's stored solution (``lumijax._stored``) for a run
-    whose numbers are nothing but a superposition of dimmers (no fit, no glare, no compliance
-    verdict: those need the scene and JAX) with ``[solver] cache`` on; else None. A
-    ``--quick`` run's solution (grids only) and a full run's (grids and patches.vtp's arrays,
-    every wavelength) have different keys."""
+                   shadows: bool) -> _Kept | None:
+    """The study's stored solution (``lumijax._stored``) for a run whose numbers are nothing
+    but a superposition of dimmers (no fit, no glare, no compliance verdict: those need the
+    scene and JAX) with ``[solver] cache`` on; else None. A ``--quick`` run's solution (grids
+    only) and a full run's (grids and patches.vtp's arrays, every wavelength) have different
+    keys."""
     if (not cfg.solver.cache or cfg.observers or cfg.compliance is not None
             or (optimise and cfg.optimise is not None)):
         return None
@@ -299,29 +323,73 @@ def _kept_solution(cfg, cache_dir: Path | None, *, quick: bool, optimise: bool,
         return None
     from ._stored import solution_key
 
-    return Path(folder), solution_key(cfg, shadows=shadows, full=not quick)
+    files: dict[str, str | None] = {}
+    key = solution_key(cfg, shadows=shadows, full=not quick, files=files)
+    return _Kept(Path(folder), key, files)
 
 
-def _rerun(kept: tuple[Path, str], cfg, rs, out: Path, *, config_s: float,
-           startup: float | None, t0: float, timings: bool, console) -> bool:
-    """A dimmer-only rerun: the stored solution superposed at the config's dimmers and written
-    (results.json, the grids' CSV and, for a full run's solution, patches.vtp: what a numbers
-    run writes), with no scene, no solve and no JAX; False when no solution is stored under
-    the key (the caller computes)."""
+def _dimmers_of(cfg) -> dict[str, float]:
+    """The config's dimmer of each network it names."""
+    return {name: net.dimmer for name, net in cfg.networks.items()}
+
+
+def _keep(results, kept: _Kept, study_file, patches=None) -> None:
+    """Store ``results``' solution for dimmer-only reruns, and record the study file that
+    leads to it (``lumijax._recorded``; not where the store failed: it has warned)."""
+    from ._stored import store_solution
+
+    if store_solution(results, kept.folder, kept.key, patches=patches) is not None:
+        _record(kept, study_file)
+
+
+def _record(kept: _Kept, study_file) -> None:
+    """Record that the study file leads to ``kept``'s solution, where it has a key."""
+    if study_file is not None and study_file.key is not None:
+        from ._recorded import write_record
+
+        write_record(kept.folder, study_file.key, kept.key, kept.files)
+
+
+def _recorded_rerun(study_file, config: Path, cache_dir: Path | None, rs, out: Path, *,
+                    config_s: float, startup: float | None, t0: float, timings: bool,
+                    console) -> bool:
+    """A dimmer-only rerun of a study file recorded by an earlier run: its stored solution
+    at the file's dimmers, with no schema, no scene and no JAX; False where no record stands
+    for the file (the caller validates the config)."""
+    from ._recorded import recorded_solution
+
+    folder = cache_dir if cache_dir is not None else (
+        Path(config).resolve().parent / ".lumijax-cache")
+    key = recorded_solution(folder, study_file.key)
+    return key is not None and _rerun(folder, key, study_file.dimmers, rs, out,
+                                      config_s=config_s, startup=startup, t0=t0,
+                                      timings=timings, console=console, recorded=True)
+
+
+def _rerun(folder: Path, key: str, dimmers_by_name: dict[str, float], rs, out: Path, *,
+           config_s: float, startup: float | None, t0: float, timings: bool,
+           console, recorded: bool = False) -> bool:
+    """A dimmer-only rerun: the stored solution superposed at ``dimmers_by_name`` (the
+    study's, by network) and written (results.json, the grids' CSV and, for a full run's
+    solution, patches.vtp: what a numbers run writes), with no scene, no solve and no JAX;
+    False when no solution is stored under the key (the caller computes). ``recorded``: the
+    solution was found from the study file's record, its config not validated (results.json
+    says so: ``solver.recorded_study``)."""
     from ._stored import load_solution
     from .report._write import write_stored
 
     t = time.perf_counter()
-    stored = load_solution(*kept)
+    stored = load_solution(folder, key)
     if stored is None:
         return False
-    dimmers = stored.dimmers_of(cfg)
+    dimmers = stored.dimmers_of(dimmers_by_name)
     grids = stored.grid_results(dimmers)
     superpose_s = time.perf_counter() - t
     document = stored.document_at(dimmers, grids, {
         "load": config_s, "config": config_s, "stored_solution": superpose_s,
         "total": superpose_s})
-    document["solver"] = {**document["solver"], "solution_reused": True}
+    document["solver"] = {**document["solver"], "solution_reused": True,
+                          **({"recorded_study": True} if recorded else {})}
     t = time.perf_counter()
     paths = write_stored(document, grids, rs, patches=stored.patches, dimmers=dimmers)
     _summary_table(document["study"], grids, console)

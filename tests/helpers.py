@@ -178,18 +178,20 @@ def observer(name: str, position, **keys) -> str:
     return table("[[observers]]", name=name, position=position, **keys)
 
 
-def run_in_new_process_without_jax(study, out, *args: str) -> dict:
+def run_in_new_process_without_jax(study, out, *args: str,
+                                   without: tuple[str, ...] = ("jax",)) -> dict:
     """``lumijax run STUDY --out OUT *args`` in a new interpreter, as a user runs it, checked
-    to exit 0 without ever importing JAX; its results.json."""
+    to exit 0 without ever importing JAX (or any module of ``without``); its results.json."""
     import subprocess
     import sys
 
     code = ("import sys; from lumijax.cli import main; "
             f"rc = main(['run', {str(study)!r}, '--out', {str(out)!r}, *{list(args)!r}]); "
-            "print('JAX', 'jax' in sys.modules); sys.exit(rc)")
+            f"print('IMPORTED', [m for m in {list(without)!r} if m in sys.modules]); "
+            "sys.exit(rc)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=300, env=dict(os.environ, JAX_PLATFORMS="cpu"))
     assert proc.returncode == 0, proc.stderr
-    assert "JAX False" in proc.stdout
+    assert "IMPORTED []" in proc.stdout, proc.stdout
     with open(os.path.join(out, "results.json"), encoding="utf-8") as f:
         return json.load(f)

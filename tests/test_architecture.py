@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lumijax"
 # The order of docs/architecture.md, bottom first. A module may import its own layer's modules and
 # any layer with a smaller rank.
 LAYERS = [
-    ("errors", "_version", "_lazy"),
+    ("errors", "_version", "_lazy", "_dimmers"),
     ("_atomic", "_registry", "_jit_cache"),
     ("_executables",),
     ("parallel",),
@@ -31,6 +31,7 @@ LAYERS = [
     ("render",),
     ("compliance",),
     ("_study", "_stored"),
+    ("_recorded",),
     ("optimise",),
     ("report",),
     ("view",),

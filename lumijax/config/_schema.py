@@ -25,6 +25,7 @@ from pydantic import (
     model_validator,
 )
 
+from .. import _dimmers
 from ._design_goals import ConstrainedMethod, ConstraintConfig, DesignObjective
 
 __all__ = [
@@ -381,7 +382,7 @@ Photometry = Annotated[
 class NetworkConfig(_Model):
     """``[networks.NAME]``: a dimmer circuit (the paper's rheostat)."""
 
-    dimmer: Annotated[float, Field(ge=0, le=1)] = 1.0
+    dimmer: Annotated[float, Field(ge=_dimmers.LOW, le=_dimmers.HIGH)] = _dimmers.DEFAULT
     description: str = ""
     power_w: NonNegative | None = Field(None, description="W at dimmer 1 (energy term)")
 

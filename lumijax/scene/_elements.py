@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from jaxtyping import Float
 
+from .. import _dimmers
 from ._frames import aim_rotation
 
 if TYPE_CHECKING:
@@ -137,7 +138,7 @@ class Network:
     """A dimmer circuit: its luminaires' light scales linearly with ``dimmer`` ∈ [0, 1]."""
 
     name: str
-    dimmer: float = 1.0
+    dimmer: float = _dimmers.DEFAULT
     description: str = ""
 
 

@@ -37,7 +37,7 @@ def _numbers(value, path="") -> dict[str, float]:
     if isinstance(value, dict):
         out: dict = {}
         for k, v in value.items():
-            if path == "" and k == "timing_s" or k in ("solution_reused",
+            if path == "" and k == "timing_s" or k in ("solution_reused", "recorded_study",
                                                        "operator_cache_hit"):
                 continue
             out.update(_numbers(v, f"{path}.{k}"))
