@@ -45,6 +45,50 @@ def test_point_to_tilted_parallelogram_and_back_face():
     assert point_to_quad([0, 0, 0], n, o, u, v) == 0.0
 
 
+def _lambert_clipped(p, n, tri):
+    """Independent reference in numpy float64: Sutherland–Hodgman clipping of the triangle to
+    the receiver's front half-space, then Lambert's contour sum over the clipped polygon."""
+    r = [np.asarray(v, float) - p for v in tri]
+    if np.dot(r[0], np.cross(r[1] - r[0], r[2] - r[0])) >= 0:
+        return 0.0  # the receiver is behind the source's front face
+    poly = []
+    for k in range(3):
+        a, b = r[k], r[(k + 1) % 3]
+        sa, sb = np.dot(a, n), np.dot(b, n)
+        if sa > 0:
+            poly.append(a)
+        if (sa > 0) != (sb > 0):
+            poly.append(a + sa / (sa - sb) * (b - a))
+    total = 0.0
+    for k in range(len(poly)):
+        a, b = poly[k], poly[(k + 1) % len(poly)]
+        c = np.cross(a, b)
+        cn = np.linalg.norm(c)
+        if cn > 0:
+            total += np.arctan2(cn, np.dot(a, b)) * np.dot(c, n) / cn
+    return abs(total) / (2 * np.pi)
+
+
+def test_every_way_a_plane_cuts_a_triangle_against_an_independent_clipper():
+    # random receivers and triangles around their plane: 0, 1, 2 or 3 corners in front, and
+    # corners on the plane (the cut falls on the corner)
+    rng = np.random.default_rng(7)
+    m = 2000
+    p = rng.normal(size=(m, 3))
+    n = rng.normal(size=(m, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    tri = p[:, None] + rng.normal(size=(m, 3, 3))
+    on = rng.random(m) < 0.2  # one corner moved onto the receiver's plane
+    tri[on, 1] -= np.einsum("mc,mc->m", tri[on, 1] - p[on], n[on])[:, None] * n[on]
+    got = np.asarray(form_factor_point_triangle(jnp.asarray(p), jnp.asarray(n),
+                                                jnp.asarray(tri)))
+    want = np.array([_lambert_clipped(p[i], n[i], tri[i]) for i in range(m)])
+    ahead = np.einsum("mkc,mc->mk", tri - p[:, None], n) > 0
+    counts = np.bincount(ahead.sum(axis=1), minlength=4)
+    assert np.all(counts > 100), counts  # every case drawn often
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+
+
 PARALLEL = [  # two a×b rectangles c apart, facing each other
     ("parallel squares c=1 (cube)", (1, 1, 1), 0.1998248957),
     ("parallel rects 2×3 c=1.5", (2, 3, 1.5), 0.3416939135),
