@@ -27,12 +27,11 @@ def _clip_to_front(r: Float[Array, "... 3 3"], s: Float[Array, "... 3"]):
     A plane cuts a triangle to at most a quadrilateral, so the result is a closed 4-slot
     polygon ``(..., 4, 3)``; with fewer corners its last slot repeats, a zero-length edge that
     adds nothing to the contour sum, and the shape stays fixed for XLA. The triangle is first
-    turned (by selects, not a gather: 30 % of the kernel's time at 4,096 points) so that its
-    cut is the same in every case: with m corners in front, for m = 3 nothing, for m = 2 the
-    one behind at slot 2, for m = 1 the one in front at slot 0. Four edges, not the six of a
-    slot per corner and per cut edge, each an arctangent: the kernel 1.94 → 1.34 ms a call of
-    4,096 points (benchmarks/RESULTS.md, session 21). Also returns whether any part is in
-    front.
+    turned (by selects: a gather was slower) so that its cut is the same in every case: with
+    m corners in front, for m = 3 nothing, for m = 2 the one behind at slot 2, for m = 1 the
+    one in front at slot 0. Four edges, each an arctangent, where a slot per corner and per
+    cut edge made six: a call of 4,096 points takes 0.79–0.88 of the time it took
+    (benchmarks/RESULTS.md, session 21). Also returns whether any part is in front.
     """
     inside = s > 0
     m = inside.sum(axis=-1)
