@@ -251,15 +251,18 @@ def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
     return caster.pair_transmission(o, t).reshape(n, rays).mean(axis=1)
 
 
-def _near_pairs_start(p: Patches, i, j, s: FormFactorSettings, caster, counters):
-    """``A_i F_ij`` (m²) for near pairs by the contour integral and receiver quadrature, its
-    kernel calls dispatched now: returns the function that waits for them and gives it (the
-    caller computes the far field meanwhile)."""
+def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster, counters,
+                      diam):
+    """``A_i F_ij`` (m²) for the near pairs ``ia[li]``, ``ib[lj]`` of two blocks by the
+    contour integral and receiver quadrature, its kernel calls dispatched now: returns the
+    function that waits for them and gives it (the caller computes the far field meanwhile).
+    ``diam``: every patch's diameter."""
+    i, j = ia[li], ib[lj]
     g = np.zeros(len(i))
     if not len(i):
         return lambda: g
     d = np.linalg.norm(p.centroid[j] - p.centroid[i], axis=1)
-    r = d / np.maximum(p.diameter[i], p.diameter[j])
+    r = d / np.maximum(diam[i], diam[j])
     close = r < s.close_ratio * (1 + _TIE)
     parts = []
     kernel = _contour_flat_quick if p.n <= DENSE_PATCHES else _contour_flat
@@ -267,8 +270,10 @@ def _near_pairs_start(p: Patches, i, j, s: FormFactorSettings, caster, counters)
         ii, jj = i[sel], j[sel]
         if not len(ii):
             continue
-        qi = _quad_points(p.vertices[ii], nsub)
-        qj = _quad_points(p.vertices[jj], nsub)
+        # each block's quadrature points once, not once per pair (a patch has hundreds of
+        # near partners): the same points, so the same factors bit for bit
+        qi = _quad_points(p.vertices[ia], nsub)[li[sel]]
+        qj = _quad_points(p.vertices[ib], nsub)[lj[sel]]
         f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj], kernel)
         f_ji = _contour_start(qj, p.normal[jj], p.vertices[ii], kernel) if s.symmetrise else None
         parts.append((sel, ii, jj, qi, qj, rays, f_ij, f_ji))
@@ -324,7 +329,7 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
         keep = front_i & front_j
         ni_i, nj_j = ni_i[keep], nj_j[keep]
         counters["near_pairs"] += len(ni_i)
-        near_done = _near_pairs_start(p, ia[ni_i], ib[nj_j], s, caster, counters)
+        near_done = _near_pairs_start(p, ia, ib, ni_i, nj_j, s, caster, counters, diam)
     far = ~near & (cos_i > 0) & (cos_j > 0) & upper
     # the far kernel (form_factor_far) in float64 numpy (host side) on the far pairs only, by
     # flat index: the same operations on the same numbers as on the whole block, without the
