@@ -317,15 +317,20 @@ def _kept_solution(cfg, cache_dir: Path | None, *, quick: bool, optimise: bool,
     if (not cfg.solver.cache or cfg.observers or cfg.compliance is not None
             or (optimise and cfg.optimise is not None)):
         return None
-    folder = cache_dir if cache_dir is not None else (
-        None if cfg.source is None else cfg.source.parent / ".lumijax-cache")
-    if folder is None:
-        return None
+    if cache_dir is None and cfg.source is None:
+        return None  # a config from text, with no folder of its own
+    folder = _cache_folder(cache_dir, cfg.source)
     from ._stored import solution_key
 
     files: dict[str, str | None] = {}
     key = solution_key(cfg, shadows=shadows, full=not quick, files=files)
-    return _Kept(Path(folder), key, files)
+    return _Kept(folder, key, files)
+
+
+def _cache_folder(cache_dir: Path | None, study: Path) -> Path:
+    """Where a study's solutions and records live: ``cache_dir`` if given, else
+    ``.lumijax-cache`` beside the study file ``study`` (resolved)."""
+    return Path(cache_dir) if cache_dir is not None else study.parent / ".lumijax-cache"
 
 
 def _dimmers_of(cfg) -> dict[str, float]:
@@ -358,8 +363,7 @@ def _recorded_rerun(study_file, config: Path, cache_dir: Path | None, rs, out: P
     for the file (the caller validates the config)."""
     from ._recorded import recorded_solution
 
-    folder = cache_dir if cache_dir is not None else (
-        Path(config).resolve().parent / ".lumijax-cache")
+    folder = _cache_folder(cache_dir, Path(config).resolve())
     key = recorded_solution(folder, study_file.key)
     return key is not None and _rerun(folder, key, study_file.dimmers, rs, out,
                                       config_s=config_s, startup=startup, t0=t0,
