@@ -30,63 +30,56 @@ def _lux(out: Path) -> np.ndarray:
     return np.asarray(_doc(out)["grids"]["floor"]["illuminance_lux"])
 
 
+def _quick(study: Path, out: Path) -> None:
+    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+
+
+def _computed(folder: Path, text: str) -> tuple[Path, Path]:
+    """The study ``text`` written in ``folder`` and run once (``--quick``): (study, out)."""
+    folder.mkdir(exist_ok=True)
+    study, out = folder / "study.toml", folder / "out"
+    study.write_text(text, encoding="utf-8")
+    _quick(study, out)
+    return study, out
+
+
 def _records(folder: Path) -> list[Path]:
     return sorted((folder / ".lumijax-cache").glob("record-*.json"))
 
 
-def test_a_recorded_study_answers_without_the_schema_as_a_fresh_computation(tmp_path):
-    study = tmp_path / "study" / "study.toml"
-    study.parent.mkdir()
-    study.write_text(box_room(SOLVER, dimmer_a=0.5), encoding="utf-8")
-    out = tmp_path / "out"
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+def test_an_unchanged_study_answers_from_its_record_as_it_computed(tmp_path):
+    # (a dimmer changed: tests/cli/test_rerun.py, against a study computed from nothing)
+    study, out = _computed(tmp_path / "study", box_room(SOLVER, dimmer_a=0.5))
     assert len(_records(study.parent)) == 1
     computed = _lux(out)
-    # unchanged, then one dimmer changed: both from the record, in a new process as a user runs
     same = run_in_new_process_without_jax(study, out, "--quick", without=UNVALIDATED)
     assert same["solver"]["recorded_study"] is True
     np.testing.assert_allclose(_lux(out), computed, rtol=1e-12)
-    study.write_text(box_room(SOLVER, dimmer_a=0.2), encoding="utf-8")
-    dimmed = run_in_new_process_without_jax(study, out, "--quick", without=UNVALIDATED)
-    assert dimmed["solver"]["recorded_study"] is True
-    assert dimmed["networks"]["a"]["dimmer"] == 0.2
-    # the independent answer: the same study at 0.2 computed from nothing (no cache at all)
-    fresh_study = tmp_path / "fresh" / "study.toml"
-    fresh_study.parent.mkdir()
-    fresh_study.write_text(box_room(SOLVER + "\ncache = false", dimmer_a=0.2), encoding="utf-8")
-    fresh = tmp_path / "fresh-out"
-    assert main(["run", str(fresh_study), "--out", str(fresh), "--quick"]) == 0
-    np.testing.assert_allclose(_lux(out), _lux(fresh), rtol=1e-6)
-    # a network whose table gives no dimmer is at the default (1)
+    # a network whose table gives no dimmer is at the default (1), as the schema makes it
     study.write_text(box_room(SOLVER, dimmer_a=None), encoding="utf-8")
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+    _quick(study, out)
     assert _doc(out)["solver"]["recorded_study"] is True
     assert _doc(out)["networks"]["a"]["dimmer"] == 1.0
+    assert len(_records(study.parent)) == 1  # one record for both: dimmers are not its key
 
 
 def test_a_named_file_with_new_bytes_is_computed_again(tmp_path):
     obj = tmp_path / "panel.obj"
     obj.write_text("v 1 1 0.5\nv 3 1 0.5\nv 1 2 0.5\nf 1 2 3\n", encoding="utf-8")
-    study = tmp_path / "study.toml"
-    study.write_text(box_room(SOLVER) + study_text(mesh("panel.obj")), encoding="utf-8")
-    out = tmp_path / "out"
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+    study, out = _computed(tmp_path, box_room(SOLVER) + study_text(mesh("panel.obj")))
+    _quick(study, out)
     assert _doc(out)["solver"]["recorded_study"] is True
     before = _lux(out)
     # the same study file, a larger panel (over the floor: less light reaches it)
     obj.write_text("v 0.5 0.5 0.5\nv 3.5 0.5 0.5\nv 0.5 2.5 0.5\nf 1 2 3\n", encoding="utf-8")
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+    _quick(study, out)
     assert "solution_reused" not in _doc(out)["solver"]
     assert not np.allclose(_lux(out), before, rtol=1e-3)
 
 
 @pytest.mark.parametrize("dimmer", ["1.5", "-0.1", "true", "nan", '"0.5"'])
 def test_a_dimmer_the_record_cannot_vouch_for_goes_the_validated_way(tmp_path, capsys, dimmer):
-    study = tmp_path / "study.toml"
-    study.write_text(box_room(SOLVER), encoding="utf-8")
-    out = tmp_path / "out"
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+    study, out = _computed(tmp_path, box_room(SOLVER))
     study.write_text(box_room(SOLVER).replace("dimmer = 0.5", f"dimmer = {dimmer}"),
                      encoding="utf-8")
     assert read_study(study, QUICK).key is None
@@ -135,10 +128,7 @@ def test_the_key_is_the_file_without_its_dimmers_and_the_runs_options(tmp_path):
 
 @pytest.mark.parametrize("damage", ["truncated", "another key", "not json"])
 def test_a_damaged_record_is_ignored_with_a_warning_and_written_again(tmp_path, capsys, damage):
-    study = tmp_path / "study.toml"
-    study.write_text(box_room(SOLVER), encoding="utf-8")
-    out = tmp_path / "out"
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+    study, out = _computed(tmp_path, box_room(SOLVER))
     expected = _lux(out)
     path = record_path(tmp_path / ".lumijax-cache", read_study(study, QUICK).key)
     text = path.read_text()
@@ -146,13 +136,13 @@ def test_a_damaged_record_is_ignored_with_a_warning_and_written_again(tmp_path, 
                      "another key": text.replace('"key": "', '"key": "0'),
                      "not json": "\x00\x01"}[damage])
     capsys.readouterr()
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+    _quick(study, out)
     assert "study record" in capsys.readouterr().out
     # answered the validated way, from the stored solution, which writes the record again
     assert _doc(out)["solver"]["solution_reused"] is True
     assert "recorded_study" not in _doc(out)["solver"]
     np.testing.assert_allclose(_lux(out), expected, rtol=1e-12)
-    assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
+    _quick(study, out)
     assert _doc(out)["solver"]["recorded_study"] is True
 
 

@@ -35,9 +35,12 @@ def test_a_dimmer_only_rerun_equals_a_fresh_computation_and_imports_no_jax(tmp_p
     assert main(["run", str(study), "--out", str(out), "--quick"]) == 0
     assert "solution_reused" not in _doc(out)["solver"]
     study.write_text(box_room(SOLVER, dimmer_a=0.2), encoding="utf-8")
-    # a new process, as a user runs it: it must answer without importing JAX at all
-    rerun = run_in_new_process_without_jax(study, out, "--quick")
+    # a new process, as a user runs it: it must answer without importing JAX at all, nor the
+    # config's schema (the first run recorded the study file: lumijax._recorded)
+    rerun = run_in_new_process_without_jax(study, out, "--quick",
+                                           without=("jax", "pydantic", "lumijax.config"))
     assert rerun["solver"]["solution_reused"] is True
+    assert rerun["solver"]["recorded_study"] is True
     assert rerun["networks"]["a"]["dimmer"] == 0.2
     assert sorted(p.name for p in out.iterdir()) == ["grids", "results.json"]
     # the independent answer: the same study computed from nothing (no cache at all)
