@@ -27,6 +27,7 @@ import functools
 import hashlib
 import io
 import json
+import os
 import warnings
 import zipfile
 from collections.abc import Mapping
@@ -68,9 +69,10 @@ _NUMBERS_IN_REPORT = ("report/_vtk.py",)
 
 @functools.cache
 def code_digest() -> str:
-    """SHA-256 of the source of every lumijax module that computes the numbers, and the
-    versions of JAX, jaxlib and numpy: an edited module (an editable install) or an upgrade
-    is a new key."""
+    """SHA-256 of the source of every lumijax module that computes the numbers, the versions
+    of JAX, jaxlib and numpy, and the environment's ``JAX_ENABLE_X64`` (64-bit arithmetic
+    for the whole process, whatever ``[solver] precision`` says): an edited module (an
+    editable install), an upgrade or the other precision is a new key."""
     h = hashlib.sha256(FORMAT.encode())
     root = Path(__file__).resolve().parent
     for path in sorted(root.rglob("*.py")):
@@ -83,6 +85,7 @@ def code_digest() -> str:
             h.update(f"{dist}={metadata.version(dist)}".encode())
         except metadata.PackageNotFoundError:
             h.update(f"{dist}=none".encode())
+    h.update(f"JAX_ENABLE_X64={os.environ.get('JAX_ENABLE_X64', '')}".encode())
     return h.hexdigest()
 
 

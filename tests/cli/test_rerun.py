@@ -107,3 +107,21 @@ def test_the_key_ignores_dimmers_and_reads_the_files_a_config_names(tmp_path):
     assert solution_key(load_config(study), shadows=False) != key
     obj.write_text("v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n", encoding="utf-8")
     assert solution_key(load_config(study)) != key
+
+
+def test_the_key_reads_the_environments_64_bit_switch(tmp_path, monkeypatch):
+    # JAX_ENABLE_X64 makes the whole process 64-bit whatever [solver] precision says: a
+    # solution computed under it must not answer a run without it, nor the other way round
+    from lumijax._stored import code_digest
+
+    study = tmp_path / "study.toml"
+    study.write_text(box_room(SOLVER), encoding="utf-8")
+    monkeypatch.delenv("JAX_ENABLE_X64", raising=False)
+    code_digest.cache_clear()
+    key = solution_key(load_config(study))
+    monkeypatch.setenv("JAX_ENABLE_X64", "1")
+    code_digest.cache_clear()
+    try:
+        assert solution_key(load_config(study)) != key
+    finally:
+        code_digest.cache_clear()
