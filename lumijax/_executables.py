@@ -320,18 +320,15 @@ def call(name: str, fn: Callable, args: tuple, code: str,
 
 
 def _host(x):
-    """A host array as the executable takes it: numpy, in JAX's dtype for it (cast on the host,
-    as :func:`~lumijax._jit_cache.to_device` does). The executable's own transfer of a numpy
-    argument costs ~0.2 ms a call less than ``jax.device_put`` first (three 4,096-point
-    arguments of the contour kernel, which an operator build calls thousands of times)."""
-    import jax
-    import numpy as np
+    """A host array as the executable takes it: numpy, in JAX's dtype for it
+    (:func:`~lumijax._jit_cache.host_cast`); anything else as ``to_device`` makes it. The
+    executable's own transfer of a numpy argument costs ~0.2 ms a call less than
+    ``jax.device_put`` first (three 4,096-point arguments of the contour kernel, which an
+    operator build calls thousands of times)."""
+    from ._jit_cache import host_cast, to_device
 
-    if isinstance(x, np.ma.MaskedArray) or not isinstance(x, (np.ndarray, np.generic)):
-        from ._jit_cache import to_device
-
-        return to_device(x)
-    return np.asarray(x, jax.dtypes.canonicalize_dtype(x.dtype))
+    host = host_cast(x)
+    return to_device(x) if host is None else host
 
 
 def _load_or_compile(name, fn, static, treedef, leaves, options, folder: Path, key: str):

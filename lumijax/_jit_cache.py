@@ -27,7 +27,7 @@ import warnings
 from pathlib import Path
 
 __all__ = ["ENV", "MIN_COMPILE_S", "cache_dir", "enable_compilation_cache", "to_device",
-           "VerifiedFileCache"]
+           "host_cast", "VerifiedFileCache"]
 
 ENV = "LUMIJAX_JAX_CACHE"
 """Environment variable: a folder for the cache, or ``0``/``off``/``false``/``no``/empty."""
@@ -225,9 +225,21 @@ def to_device(x, dtype=None):
     """
     import jax
     import jax.numpy as jnp
+
+    host = host_cast(x, dtype)
+    if host is None:
+        return jnp.asarray(x) if dtype is None else jnp.asarray(x, dtype)
+    return jax.device_put(host)
+
+
+def host_cast(x, dtype=None):
+    """A numpy array ``x`` in the dtype JAX would hold it in (``dtype``, or its own, made
+    canonical: float64 is float32 unless x64 is on), cast by numpy on the host; None for
+    anything else (JAX arrays, tracers, Python scalars, masked arrays)."""
+    import jax
     import numpy as np
 
     if not isinstance(x, (np.ndarray, np.generic)) or isinstance(x, np.ma.MaskedArray):
-        return jnp.asarray(x) if dtype is None else jnp.asarray(x, dtype)
-    want = jax.dtypes.canonicalize_dtype(x.dtype if dtype is None else np.dtype(dtype))
-    return jax.device_put(np.asarray(x, want))
+        return None
+    return np.asarray(x, jax.dtypes.canonicalize_dtype(
+        x.dtype if dtype is None else np.dtype(dtype)))
