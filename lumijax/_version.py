@@ -1,8 +1,6 @@
-"""The installed version, in one place below every subpackage (results and the report cite it)."""
+"""The version, in one place below every subpackage (results and the report cite it).
 
-from importlib.metadata import PackageNotFoundError, version
+A literal that the build reads (pyproject's ``[tool.setuptools.dynamic]``), not
+``importlib.metadata``: that import alone cost 30 ms of a 0.3 s rerun."""
 
-try:
-    __version__ = version("lumijax")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0.0.0+unknown"
+__version__ = "0.1.0"

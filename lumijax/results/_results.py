@@ -5,10 +5,12 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from jaxtyping import Float
+
+if TYPE_CHECKING:  # shapes for the reader and mypy; importing jaxtyping is 38 ms of a rerun
+    from jaxtyping import Float
 
 __all__ = ["GridResult", "Results", "grid_stats", "CRITERIA_SLACK"]
 
