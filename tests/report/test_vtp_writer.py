@@ -16,6 +16,7 @@ def _cells(n: int, rng) -> dict[str, np.ndarray]:
         "radiosity_lm_m2": rng.uniform(0, 500, n),
         "material": rng.integers(0, 7, n).astype(np.int32),
         "radiosity_lm_m2:row 1 <&>": rng.uniform(0, 1, n),  # a network name needing escapes
+        'radiosity_lm_m2:the "east"\trow': rng.uniform(0, 1, n),  # a double quote, a tab
         "xyz": rng.uniform(0, 1, (n, 3)),
         "chromaticity_xy": rng.uniform(0, 1, (n, 2)),
     }
