@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import base64
 import zlib
-from pathlib import Path
 from html import escape
+from pathlib import Path
 
 import numpy as np
 
