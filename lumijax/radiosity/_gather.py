@@ -93,7 +93,9 @@ def build_gather(
     seed: int = 0,
     chunk: int = 4096,
 ) -> GatherOperator:
-    """Cast ``rays`` cosine-weighted rays from each point and record which patch each hits.
+    """Cast ``rays`` cosine-weighted rays from each point and record which patch each hits
+    (exactly, by :class:`~lumijax.radiosity.PatchLocator`, where the caster's triangles are
+    the ones the patches were cut from; else the hit triangle's nearest patch centroid).
 
     Parameters
     ----------
@@ -115,6 +117,7 @@ def build_gather(
     tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
     tri_normals[src_tri] = patches.normal
     rows, cols, carry = [], [], []
+    locator = _locator(patches, caster)
     for s in range(0, len(points), chunk):
         p = points[s : s + chunk]
         frames = _frames(np.asarray(normals[s : s + chunk], np.float64), rng)
@@ -126,7 +129,12 @@ def build_gather(
         # surfaces are one-sided: a ray meeting a patch's back sees no light (it is still blocked)
         hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
         hit_points = origins[hit] + dirs[hit] * dist[hit, None]
-        patch = patch_of_hits(patches, hit_points, tri[hit])
+        if locator is None:
+            patch = patch_of_hits(patches, hit_points, tri[hit])
+        else:  # a triangle with no patch (an occluder only) blocks and carries nothing
+            patch = locator(hit_points, tri[hit])
+            hit[hit] = patch >= 0
+            patch = patch[patch >= 0]
         rows.append(np.repeat(np.arange(s, s + len(p)), rays)[hit])
         cols.append(patch)
         carry.append(carried[hit])
@@ -144,6 +152,19 @@ def build_gather(
         patch=(uniq % patches.n).astype(np.int32),
         weight=counts / rays,
     )
+
+
+def _locator(patches, caster):
+    """The exact patch lookup of ``patches`` in ``caster``'s triangles (:class:`~lumijax.
+    radiosity.PatchLocator`), or None where the caster's triangles are not the ones the patches
+    were cut from."""
+    from ._sampled import PatchLocator
+
+    triangles = getattr(caster, "_triangles", None)
+    src = np.asarray(patches.source_triangle)
+    if triangles is None or (len(src) and src.max() >= len(triangles)):
+        return None
+    return PatchLocator(patches, triangles)
 
 
 def patch_of_hits(patches, points, tri, *, few: int = 256,

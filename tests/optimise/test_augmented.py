@@ -153,9 +153,9 @@ def test_augmented_lagrangian_matches_slsqp_with_aims(facade_results):
     """Dimmers + the four spots' aims (±8°) on the optimiser tests' facade, Eavg ≥ 60 % and
     U0 ≥ 80 % of the start's: non-convex, but from the same start the augmented Lagrangian,
     SLSQP and the method of moving asymptotes reach the same least power (measured: equal to
-    2e-7), the same active constraints and prices (MMA's: measured 0.04 % from SLSQP's, once its
-    last level waits for the margins within 10⁻⁵; the U0 price moved 6 % at the 10⁻⁴ it waited
-    for before); MMA in at most 45 evaluations (measured 29, SLSQP 51, the augmented Lagrangian
+    2e-7), the same active constraints and prices (MMA's within 1 % of SLSQP's converged to
+    10⁻⁶: measured 0.16 %; the U0 price moved 6 % when MMA's last level waited for the margins
+    within 10⁻⁴ only); MMA in at most 45 evaluations (measured 29, SLSQP 51, the augmented Lagrangian
     196: the regression bound of ``_mma``'s purpose). The prices against re-solves at tightened
     bounds: ``test_mma``."""
     study, results = facade_results
@@ -173,7 +173,12 @@ def test_augmented_lagrangian_matches_slsqp_with_aims(facade_results):
         assert mm.objective == pytest.approx(sq.objective, rel=1e-4)
         assert list(al.active) == list(sq.active) == list(mm.active) == [True, True]
         np.testing.assert_allclose(al.prices, sq.prices, rtol=0.05)
-        np.testing.assert_allclose(mm.prices, sq.prices, rtol=0.01)
+        # MMA's prices against SLSQP's converged ones: at its default tolerance (margins within
+        # 10⁻³) SLSQP stops where its KKT fit of the U0 price is 1.4 % off (5.837 W against
+        # 5.758 W at 10⁻⁶; MMA 5.767 W, its KKT test at 1.3·10⁻⁵), measured since the gather
+        # finds each ray's patch exactly
+        tight = solve_constrained(prob, x0, lo, hi, method="slsqp", tolerance=1e-6)
+        np.testing.assert_allclose(mm.prices, tight.prices, rtol=0.01)
         assert mm.evaluations <= 45
         # the design meets the constraints on the model's exact (unsmoothed) criteria
         for run in (al, mm):

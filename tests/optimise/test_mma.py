@@ -56,9 +56,9 @@ def test_mma_aims_price_predicts_a_resolve(facade_results, which):
     each of MMA's prices × a 0.5 % raise of its bound is what the least power rises by when
     SLSQP (independent of MMA) solves the problem at both bounds, within 3 % (the envelope
     theorem, to first order; the U0 price moves ~3 % per 0.5 % of its bound here, so the
-    backward difference is 5.5 W and the central one 3.4 % off). Measured: Eavg 0.117844 W/lx,
-    the re-solves' to 4·10⁻⁷; U0 5.8225 W against the re-solves' 5.7614 W (1.1 %; SLSQP's own
-    price 5.8251 W). Before the last level waited for the margins within 10⁻⁵
+    backward difference is 5.5 W and the central one 3.4 % off). Measured (since the gather
+    finds each ray's patch exactly): Eavg 0.117839 W/lx; U0 5.767 W against the re-solves'
+    5.671 W (1.7 %; SLSQP's own price, converged to 10⁻⁶, 5.758 W). Before the last level waited for the margins within 10⁻⁵
     (``_mma._FEAS_STOP``), MMA's U0 price was 5.46 W (5.2 % off): this test failed."""
     study, results = facade_results
     factors = [1.0, 1.0]
