@@ -236,15 +236,17 @@ def compute(
     timing = {"load": study.load_s, "config": study.config_s, "scene": study.scene_s,
               **lighting.stats.get("timing_s", {}), "total": time.perf_counter() - t0}
     counts = {k: v for k, v in lighting.stats.items()
-              if isinstance(v, int) and not isinstance(v, bool)}
+              if isinstance(v, int) and not isinstance(v, bool) and k != "gather_rays"}
     counts["grid_points"] = int(len(points))
     solver = {k: v for k, v in lighting.stats.items()
               if k in ("patch_size_m", "iterations", "residual", "escaped_fraction",
-                       "operator_cache_hit", "spectral_samples", "columns_solved")}
+                       "operator_cache_hit", "spectral_samples", "columns_solved",
+                       "gather_rays")}
     if lighting.spectral is not None and lighting.spectral.sampling is not None:
         solver["wavelengths_nm"] = [float(w) for w in lighting.spectral.sampling.wavelengths_nm]
     glare = _glare(study, lighting, out, design, shadows=shadows,
-                   rays=settings.gather_rays) if study.config.observers else None
+                   rays=settings.gather_rays_for(len(study.config.observers))
+                   ) if study.config.observers else None
     results = Results(
         study=sc.name, grids=out, networks=networks, timing_s=timing, counts=counts,
         solver=solver, lighting=lighting, design=design, recompute=recompute, glare=glare,

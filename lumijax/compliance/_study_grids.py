@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..direct import SensorResponse
+from ..lighting import GATHER_RAYS
 from ._sensors import SensorLight, sensor_light
 
 __all__ = ["sensor_grids"]
@@ -21,7 +22,7 @@ def sensor_grids(study, lighting, *, rays: int | None = None,
     cfg = study.config
     frames = None
     out: dict[str, SensorLight] = {}
-    rays = rays if rays is not None else 2 * cfg.solver.gather_rays
+    rays = rays if rays is not None else 2 * (cfg.solver.gather_rays or GATHER_RAYS)
     for g, built in zip(cfg.grids, study.scene.grids, strict=True):
         if g.kind != "sensor" or g.sensor == "vertical":
             continue

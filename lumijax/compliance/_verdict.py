@@ -20,6 +20,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..errors import ConfigError
+from ..lighting import GATHER_RAYS
 from . import _tables
 from ._energy import PowerModel, leni_kwh_per_m2, power_model
 from ._maintenance import network_maintenance
@@ -430,7 +431,7 @@ def compliance_model(study, results) -> ComplianceModel:
                                       ("ulr",), ulr_src, note="direct light only"))
             if ob.reflected_ulr != "off" and results.lighting is not None:
                 ulr_refl = jnp.asarray(reflected_upward_flux(
-                    results.lighting, rays=cfg.solver.gather_rays))
+                    results.lighting, rays=cfg.solver.gather_rays or GATHER_RAYS))
                 criteria.append(Criterion(
                     "CIE 150", "installation", "ULR incl. reflected", "",
                     ulr_lim if ob.reflected_ulr == "judge" else None, "max",

@@ -541,7 +541,8 @@ class SolverConfig(_Model):
     method: RadiosityMethodName = "refined"
     tolerance: Annotated[float, Field(gt=0, lt=1)] | None = None
     max_iterations: Annotated[int, Field(ge=1)] = 1000
-    gather_rays: Annotated[int, Field(ge=16, le=65536)] = 512
+    # None: 512 a point, up to 4,096 on small grids (lighting._settings.gather_rays_for)
+    gather_rays: Annotated[int, Field(ge=16, le=65536)] | None = None
     precision: Literal["float32", "float64"] = "float32"
     spectral_samples: Annotated[int, Field(ge=0, le=64)] = 16
     cache: bool = True

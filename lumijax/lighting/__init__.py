@@ -6,4 +6,5 @@ from ._pipeline import (
     auto_patch_size as auto_patch_size,
     solve_lighting as solve_lighting,
 )
+from ._settings import GATHER_RAYS as GATHER_RAYS, gather_rays_for as gather_rays_for
 from ._solution import LightingSolution as LightingSolution

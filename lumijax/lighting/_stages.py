@@ -409,7 +409,7 @@ def cast_gather_rays(points: np.ndarray, normals: np.ndarray, meshed: Meshed, sc
     not the same rays) that report ``(points done, points)``."""
     t = time.perf_counter()
     gather = _gather_in_chunks(points, normals, meshed.patches, scene.raycaster,
-                               settings.gather_rays, report)
+                               settings.gather_rays_for(len(points)), report)
     return GatherRays(gather, time.perf_counter() - t)
 
 
@@ -444,7 +444,7 @@ def gather_fine(scene: Scene, emission: Emission, direct: DirectLight, meshed: M
     t = time.perf_counter()
     fine = final_gather(meshed.fine, meshed.patches, scene.raycaster, sampling.spectral,
                         list(emission.spectra), _needed(radiosity.shot.value),
-                        _needed(direct.fine), rays=settings.gather_rays)
+                        _needed(direct.fine), rays=settings.gather_rays_for(meshed.fine.n))
     return Gathered(fine, time.perf_counter() - t)
 
 
@@ -460,7 +460,8 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
     solve_stats = radiosity.stats()
     _warn(shot, solve_stats, rays.gather, len(points))
     stats: dict = {"shadow_rays": direct.shadow_rays, "patches": meshed.patches.n,
-                   "patch_size_m": meshed.patch_size_m}
+                   "patch_size_m": meshed.patch_size_m,
+                   "gather_rays": settings.gather_rays_for(len(points))}
     if meshed.fine is not None:
         stats.update(fine_patches=meshed.fine.n, element_size_m=meshed.element_size_m)
     stats["operator_bytes_bound"] = transport.bytes_bound
