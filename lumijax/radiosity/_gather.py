@@ -118,33 +118,43 @@ def build_gather(
     tri_normals[src_tri] = patches.normal
     rows, cols, carry = [], [], []
     locator = _locator(patches, caster)
+    glazed = getattr(caster, "glazing_key", None) is not None
     for s in range(0, len(points), chunk):
         p = points[s : s + chunk]
         frames = _frames(np.asarray(normals[s : s + chunk], np.float64), rng)
         dirs = np.einsum("pij,rj->pri", frames, local).reshape(-1, 3)
         origins = np.repeat(p, rays, axis=0)
-        # clear panes pass the ray on, carrying τ(θ) (docs/materials.md); else ``carried`` is 1
-        tri, dist, carried = caster.first_hit_through(origins, dirs)
+        if glazed:  # clear panes pass the ray on, carrying τ(θ) (docs/materials.md)
+            tri, dist, carried = caster.first_hit_through(origins, dirs)
+            uv = None
+        else:  # Embree's barycentric uv: the patch lookup needs no hit point
+            tri, dist, uv = caster.first_hit_uv(origins, dirs)
         hit = tri >= 0
         # surfaces are one-sided: a ray meeting a patch's back sees no light (it is still blocked)
         hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
-        hit_points = origins[hit] + dirs[hit] * dist[hit, None]
         if locator is None:
-            patch = patch_of_hits(patches, hit_points, tri[hit])
+            patch = patch_of_hits(patches, origins[hit] + dirs[hit] * dist[hit, None], tri[hit])
         else:  # a triangle with no patch (an occluder only) blocks and carries nothing
-            patch = locator(hit_points, tri[hit])
+            if uv is None:
+                patch = locator(origins[hit] + dirs[hit] * dist[hit, None], tri[hit])
+            else:
+                patch = locator(None, tri[hit], uv[hit])
             hit[hit] = patch >= 0
             patch = patch[patch >= 0]
         rows.append(np.repeat(np.arange(s, s + len(p)), rays)[hit])
         cols.append(patch)
-        carry.append(carried[hit])
+        if glazed:
+            carry.append(carried[hit])
     point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)
     patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)
     # merge repeated (point, patch) links: fewer gathers per product
     key = point_idx.astype(np.int64) * patches.n + patch_idx
-    uniq, inverse = np.unique(key, return_inverse=True)
-    counts = np.bincount(inverse.ravel(), weights=np.concatenate(carry) if carry else None,
-                         minlength=len(uniq))
+    if glazed:
+        uniq, inverse = np.unique(key, return_inverse=True)
+        counts = np.bincount(inverse.ravel(), weights=np.concatenate(carry) if carry else None,
+                             minlength=len(uniq))
+    else:  # every hit carries 1: counting sorts, where the inverse needs an argsort
+        uniq, counts = np.unique(key, return_counts=True)
     return GatherOperator(
         n_points=len(points),
         n_patches=patches.n,

@@ -40,6 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float, Int
 
+from .. import _executables
 from ..errors import GeometryError
 from ._gather import _cosine_directions, _frames
 from ._operator import Info, SampledBucket, TransportOperator
@@ -381,8 +382,10 @@ def _patch_of(tri, uv, tables, height: int):
     return jnp.where(tri >= 0, found, -1)
 
 
-@partial(jax.jit, static_argnums=3)
+@_executables.stored("patch_lookup", "radiosity/_sampled.py", static_argnums=3)
 def _lookup(tri, uv, tables, height: int):
+    # kept across processes: a small study's gather calls it once, where tracing and lowering
+    # would be most of its cost
     return _patch_of(tri, uv, tables, height)
 
 
