@@ -14,6 +14,7 @@ results are reproducible.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import jax
@@ -164,17 +165,30 @@ def build_gather(
     )
 
 
+_LOCATORS = threading.Lock()
+_KEPT_LOCATORS = 4  # meshes of one scene whose lookups a caster keeps
+
+
 def _locator(patches, caster):
     """The exact patch lookup of ``patches`` in ``caster``'s triangles (:class:`~lumijax.
     radiosity.PatchLocator`), or None where the caster's triangles are not the ones the patches
-    were cut from."""
+    were cut from. Made once per caster and patches (1.3 s at 3.4·10⁵ patches) and kept on the
+    caster: a study's gathers (the grids' chunks on threads, the observers, a fine level) share
+    it."""
     from ._sampled import PatchLocator
 
-    triangles = getattr(caster, "_triangles", None)
+    triangles = getattr(caster, "triangles", None)
     src = np.asarray(patches.source_triangle)
     if triangles is None or (len(src) and src.max() >= len(triangles)):
         return None
-    return PatchLocator(patches, triangles)
+    with _LOCATORS:  # the other threads wait for this one's, not make their own
+        kept = caster.__dict__.setdefault("_patch_locators", {})
+        held = kept.get(id(patches))
+        if held is None or held[0] is not patches:  # held: the patches too, so ids stay theirs
+            while len(kept) >= _KEPT_LOCATORS:  # a session re-meshing one scene: the newest
+                kept.pop(next(iter(kept)))
+            held = kept[id(patches)] = (patches, PatchLocator(patches, triangles))
+        return held[1]
 
 
 def patch_of_hits(patches, points, tri, *, few: int = 256,

@@ -63,6 +63,11 @@ class RayCaster:
             self._scene = rtcore_scene.EmbreeScene()
             TriangleMesh(scene=self._scene, vertices=verts, indices=faces)
 
+    @property
+    def triangles(self) -> Float[np.ndarray, "tri 3 3"]:
+        """The triangles it was built from (m, float64; not a copy: do not write to it)."""
+        return self._triangles
+
     def __reduce__(self):
         # pickled as its triangles, so a Dask worker can hold one (docs/parallel.md); it
         # rebuilds the Embree scene once per process and content, not once per task
