@@ -33,7 +33,7 @@ from jaxtyping import Float
 
 from ..kernels import length_tolerance
 from ..parallel import Executor, current_executor
-from ._gather import GatherOperator, patch_of_hits
+from ._gather import GatherOperator, merged_links, patch_of_hits
 
 __all__ = ["FineLevel", "build_fine_gather", "element_direct", "final_gather",
            "fine_transmission", "reflect_onto_fine"]
@@ -128,8 +128,7 @@ def _fine_chunk(span, *, origins, normals, local, elements, caster, tri_normals,
     hit[hit] &= np.einsum("ij,ij->i", dirs[hit], tri_normals[tri[hit]]) < 0
     elem = patch_of_hits(elements, o[hit] + dirs[hit] * dist[hit, None], tri[hit])
     key = np.repeat(np.arange(len(p), dtype=np.int64), rays)[hit] * elements.n + elem
-    uniq, inverse = np.unique(key, return_inverse=True)
-    counts = np.bincount(inverse.ravel(), weights=carried[hit], minlength=len(uniq))
+    uniq, counts = merged_links(key, carried[hit])
     return ((uniq // elements.n + s).astype(np.int32), (uniq % elements.n).astype(np.int32),
             (counts / rays).astype(np.float32))
 

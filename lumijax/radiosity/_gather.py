@@ -150,12 +150,7 @@ def build_gather(
     patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)
     # merge repeated (point, patch) links: fewer gathers per product
     key = point_idx.astype(np.int64) * patches.n + patch_idx
-    if glazed:
-        uniq, inverse = np.unique(key, return_inverse=True)
-        counts = np.bincount(inverse.ravel(), weights=np.concatenate(carry) if carry else None,
-                             minlength=len(uniq))
-    else:  # every hit carries 1: counting sorts, where the inverse needs an argsort
-        uniq, counts = np.unique(key, return_counts=True)
+    uniq, counts = merged_links(key, np.concatenate(carry) if glazed and carry else None)
     return GatherOperator(
         n_points=len(points),
         n_patches=patches.n,
@@ -163,6 +158,17 @@ def build_gather(
         patch=(uniq % patches.n).astype(np.int32),
         weight=counts / rays,
     )
+
+
+def merged_links(key: Int[np.ndarray, " hits"],
+                 carried: Float[np.ndarray, " hits"] | None = None):
+    """The distinct link keys of a set of hits (sorted) and each one's total: the hits'
+    count, or the sum of what they carry (a glazed scene's τ). Counting sorts; summing weights
+    needs the inverse, an argsort."""
+    if carried is None:
+        return np.unique(key, return_counts=True)
+    uniq, inverse = np.unique(key, return_inverse=True)
+    return uniq, np.bincount(inverse.ravel(), weights=carried, minlength=len(uniq))
 
 
 _LOCATORS = threading.Lock()

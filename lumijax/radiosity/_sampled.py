@@ -42,7 +42,7 @@ from jaxtyping import Float, Int
 
 from .. import _executables
 from ..errors import GeometryError
-from ._gather import _cosine_directions, _frames
+from ._gather import _cosine_directions, _frames, merged_links
 from ._operator import Info, SampledBucket, TransportOperator
 from ._patches import Patches
 
@@ -485,11 +485,7 @@ def sample_batch(
         hit = np.flatnonzero(j >= 0)
         j = j[hit]
     key = (hit // n_rays + start) * patches.n + j
-    if glazed:
-        uniq, inverse = np.unique(key, return_inverse=True)
-        counts = np.bincount(inverse.ravel(), weights=carried[hit], minlength=len(uniq))
-    else:
-        uniq, counts = np.unique(key, return_counts=True)
+    uniq, counts = merged_links(key, carried[hit] if glazed else None)
     r = (uniq // patches.n).astype(np.int32)
     weight = (patches.area[r] * counts / n_rays).astype(np.float32)
     return r, (uniq % patches.n).astype(np.int32), weight, dict(rays=len(o), ray_s=ray_s)
