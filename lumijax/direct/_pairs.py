@@ -386,19 +386,14 @@ def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, resp
     a, b = tiles.offsets[t], tiles.offsets[t + 1]
     p, n = pts[a:b].T, nrm[a:b]  # (3, points)
     s = batch.position[rows][:, :, None]  # (rows, 3, 1)
-    dx, dy, dz = p[0] - s[:, 0], p[1] - s[:, 1], p[2] - s[:, 2]  # receiver − source
+    d = p[0] - s[:, 0], p[1] - s[:, 1], p[2] - s[:, 2]  # receiver − source
     ax = axis[rows][:, :, None]
-    rr = np.sqrt(dx * dx + dy * dy + dz * dz)
-    # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
-    # 1 µm model and nothing at all at site coordinates
-    ok = dx * ax[:, 0] + dy * ax[:, 1] + dz * ax[:, 2] >= (cos_support[rows] - 1e-9)[:, None] * rr
-    if response is None:
-        ok &= dx * n[:, 0] + dy * n[:, 1] + dz * n[:, 2] < 0
-    if banded:
-        cen = batch.centre[rows][:, :, None]
-        cx, cy, cz = p[0] - cen[:, 0], p[1] - cen[:, 1], p[2] - cen[:, 2]
-        rc = np.sqrt(cx * cx + cy * cy + cz * cz)  # = np.linalg.norm of the gathered offsets
-        ok &= (rc >= batch.lo[rows][:, None]) & (rc < batch.hi[rows][:, None])
+    cen = batch.centre[rows][:, :, None] if banded else None
+    ok = _kept(d, (ax[:, 0], ax[:, 1], ax[:, 2]), cos_support[rows][:, None],
+               None if response is not None else (n[:, 0], n[:, 1], n[:, 2]),
+               None if cen is None else (p[0] - cen[:, 0], p[1] - cen[:, 1], p[2] - cen[:, 2]),
+               batch.lo[rows][:, None], batch.hi[rows][:, None])
+    dx, dy, dz = d
     si, pi = np.nonzero(ok)
     src = rows[si]
     rcv = tiles.order[a + pi]
@@ -409,6 +404,69 @@ def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, resp
         src, rcv, off, pi = src[f], rcv[f], off[f], pi[f]
     w, gain = _geometry(off, n[pi], batch.scale[src], response, rcv)
     return src, rcv, w, gain
+
+
+def _kept(d, axis, cos_support, normal, from_centre, lo, hi):
+    """Which (source, receiver) pairs can receive light, from broadcastable components (x, y,
+    z) of the offsets ``d`` (receiver − source, m), the beam ``axis`` and its support cosine;
+    ``normal``: the receiver must face the source (None: a sensor, which decides itself);
+    ``from_centre`` (receiver − luminaire centre, m; None: no band): a sub-source's distance
+    band ``[lo, hi)``. The same float64 operations whichever shape the pairs come in."""
+    dx, dy, dz = d
+    rr = np.sqrt(dx * dx + dy * dy + dz * dz)
+    # the cone's margin is relative to the distance: 1e-9 m would be a wide margin in a
+    # 1 µm model and nothing at all at site coordinates
+    ok = dx * axis[0] + dy * axis[1] + dz * axis[2] >= (cos_support - 1e-9) * rr
+    if normal is not None:
+        ok &= dx * normal[0] + dy * normal[1] + dz * normal[2] < 0
+    if from_centre is not None:
+        cx, cy, cz = from_centre
+        rc = np.sqrt(cx * cx + cy * cy + cz * cz)  # = np.linalg.norm of the gathered offsets
+        ok &= (rc >= lo) & (rc < hi)
+    return ok
+
+
+def _owned_pairs(batch, owner, pts, nrm, axis, cos_support, banded):
+    """Each receiver's pairs with the rows of its ``owner`` luminaire in ``batch`` whose
+    distance band holds it, kept as :func:`_tile_pairs` keeps them, in parts of at most about
+    :data:`_EXPAND` pairs."""
+    # the rows' groups: one luminaire's sub-sources of one band, contiguous once sorted
+    order = np.lexsort((batch.lo, batch.luminaire))
+    lum, lo, hi = batch.luminaire[order], batch.lo[order], batch.hi[order]
+    new = np.flatnonzero(np.r_[True, (lum[1:] != lum[:-1]) | (lo[1:] != lo[:-1])])
+    g_lum, g_lo, g_hi = lum[new], lo[new], hi[new]
+    g_rows = np.diff(np.r_[new, len(order)])
+    first = np.searchsorted(g_lum, owner, "left")
+    groups = np.searchsorted(g_lum, owner, "right") - first
+    # the band of each receiver: the last of its owner's groups starting at or before it
+    d = pts - batch.centre[order[new[np.minimum(first, len(new) - 1)]]]
+    rc = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
+    band = np.full(len(owner), -1)
+    for k in range(int(groups.max(initial=0))):
+        g = np.minimum(first + k, len(new) - 1)
+        band = np.where((k < groups) & (g_lo[g] <= rc), g, band)
+    ok = band >= 0
+    ok[ok] &= rc[ok] < g_hi[band[ok]]
+    receivers = np.flatnonzero(ok)
+    count = g_rows[band[receivers]]
+    row0 = new[band[receivers]]
+    ends = np.cumsum(count)
+    r0 = 0
+    while r0 < len(receivers):
+        r1 = max(int(np.searchsorted(ends, (ends[r0 - 1] if r0 else 0) + _EXPAND, "right")),
+                 r0 + 1)
+        rcv = np.repeat(receivers[r0:r1], count[r0:r1])
+        start = np.repeat(np.cumsum(np.r_[0, count[r0:r1 - 1]]), count[r0:r1])
+        src = order[np.repeat(row0[r0:r1], count[r0:r1]) + np.arange(len(rcv)) - start]
+        off = pts[rcv] - batch.position[src]
+        n = nrm[rcv]
+        cen = pts[rcv] - batch.centre[src] if banded else None
+        keep = _kept(off.T, axis[src].T, cos_support[src], n.T,
+                     None if cen is None else cen.T, batch.lo[src], batch.hi[src])
+        src, rcv, off = src[keep], rcv[keep], off[keep]
+        w, gain = _geometry(off, n[keep], batch.scale[src])
+        yield src, rcv, w, gain
+        r0 = r1
 
 
 def _pow2(n: int) -> int:
@@ -452,7 +510,8 @@ def _geometry(offsets: np.ndarray, normals: np.ndarray, scale: np.ndarray, respo
 
 def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = None,
                 widen=None, threshold: float = 0.0, caster=None,
-                stats: PairStats | None = None, response=None) -> Iterator[PairChunk]:
+                stats: PairStats | None = None, response=None,
+                owner: np.ndarray | None = None) -> Iterator[PairChunk]:
     """The pairs of the luminaires ``selection`` (indices into ``scene.luminaires``, default
     all) and receivers ``points``/``normals`` (m, unit), in batches of at most about 10⁶.
 
@@ -463,7 +522,9 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     ``caster`` is a ray caster (``None``: no shadows). Batches are yielded, not kept: the
     forward light sums and forgets them, the aim model keeps the few it needs. ``response``
     (a :class:`lumijax.direct.SensorResponse`) makes the receivers sensors (cylindrical, ...)
-    instead of planes of ``normals``.
+    instead of planes of ``normals``. ``owner`` (``(points,)`` indices into ``selection``)
+    pairs each receiver with that one luminaire only, planes only (``radiosity.near_light``'s
+    samples).
     """
     sel = list(range(len(scene.luminaires))) if selection is None else list(selection)
     stats = PairStats(timing_s={}) if stats is None else stats
@@ -472,16 +533,21 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
         timing.setdefault(k, 0.0)
     if not len(points) or not sel:
         return
+    if owner is not None and response is not None:
+        raise ValueError("pair_chunks: receivers with an owner are planes (response=None)")
     rot_all = np.array([scene.luminaires[i].rotation for i in sel]).reshape(-1, 3, 3)
     # numpy → device without an eager kernel (_jit_cache.to_device), padded with identities to
     # a power of two so that selections of other sizes reuse the compiled kernel
     rot_pad = np.broadcast_to(np.eye(3), (_pow2(len(rot_all)) - len(rot_all), 3, 3))
     rot_j = to_device(np.concatenate([rot_all, rot_pad]))
     widen = np.zeros(len(sel)) if widen is None else np.asarray(widen, np.float64)
-    tiles = Tiles.build(points)
-    pts_t, nrm_t = points[tiles.order], normals[tiles.order]  # tile order: a tile is a slice
-    n_tiles = max(len(tiles.radius), 1)
+    # tile order: a tile is a slice (receivers with an owner are paired directly, no tiles)
+    tiles = Tiles.build(points) if owner is None else None
+    pts_t, nrm_t = (points, normals) if tiles is None else (points[tiles.order],
+                                                           normals[tiles.order])
+    n_tiles = 1 if tiles is None else max(len(tiles.radius), 1)
     widened = bool(np.any(widen > 0))
+
     for batch in _point_sources(scene, sel):
         dist = scene.photometries[batch.photometry].distribution
         half = np.arccos(np.clip(support_cosine(dist, threshold), -1.0, 1.0))
@@ -496,6 +562,16 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
         pending: list[tuple[np.ndarray, ...]] = []
         pending_n = 0
         n_src = len(batch.position)
+        if owner is not None:  # each receiver its own luminaire's: no tiles to cull
+            t0 = time.perf_counter()
+            for part in _owned_pairs(batch, owner, points, normals, axis, cos_src, banded):
+                pending.append(part)
+                pending_n += len(part[0])
+                stats.candidate_pairs += len(part[0])
+            timing["cull"] += time.perf_counter() - t0
+            yield from _flush(pending, batch, dist, points, rot_j, caster, widened, stats,
+                              timing)
+            continue
         for c0 in range(0, n_src, per_keep):
             t0 = time.perf_counter()
             # which tiles each source row may light, then tile by tile the pairs of the rows
@@ -574,10 +650,11 @@ def _chunk(batch, dist, s_idx, r_idx, w, gain, points, rot_j, caster, all_rays, 
 
 
 def build_pairs(scene, points, normals, selection: Sequence[int], *, widen=None,
-                threshold: float = 0.0, shadows: bool = True, dtype=np.float64
-                ) -> tuple[tuple[PairSet, ...], PairStats]:
+                threshold: float = 0.0, shadows: bool = True, dtype=np.float64,
+                owner: np.ndarray | None = None) -> tuple[tuple[PairSet, ...], PairStats]:
     """The pair sets (one per photometry) of the luminaires ``selection``, kept: what the aim
-    model needs. Same culling and rays as the forward light (:func:`pair_chunks`)."""
+    model needs. Same culling and rays as the forward light (:func:`pair_chunks`, whose
+    ``owner`` it passes on)."""
     caster = scene.raycaster if shadows and len(scene.triangles) else None
     stats = PairStats(timing_s={})
     points = np.ascontiguousarray(points, np.float64)
@@ -585,7 +662,7 @@ def build_pairs(scene, points, normals, selection: Sequence[int], *, widen=None,
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     by: dict[str, list[PairChunk]] = {}
     for c in pair_chunks(scene, points, normals, selection=selection, widen=widen,
-                         threshold=threshold, caster=caster, stats=stats):
+                         threshold=threshold, caster=caster, stats=stats, owner=owner):
         by.setdefault(c.photometry, []).append(c)
     out = []
     for name, chunks in by.items():

@@ -37,7 +37,7 @@ from jaxtyping import Float
 from .. import _executables
 from .._jit_cache import to_device
 from ..direct import direct_illuminance
-from ..radiosity import Patches, RadiositySolution, TransportOperator
+from ..radiosity import Patches, RadiositySolution, TransportOperator, near_light
 from ..radiosity._gather import GatherOperator
 from ..scene import Scene
 from ..spectral import Spectrum
@@ -245,7 +245,8 @@ class LightingSolution:
         points (that luminaire's candidate pairs only), one solve of ``(I − ρF) ΔB = ρ ΔE``
         over the sample wavelengths (one column per wavelength when network and spectrum stay,
         two otherwise), and one gather. The result equals a full re-solve up to the solver's
-        tolerance. The network and the spectrum may change too.
+        tolerance (a luminaire's light on the patches is its own: ``radiosity.near_light``).
+        The network and the spectrum may change too.
         """
         with float64_scope(_float64(self)):
             return self._replace_luminaire(index, luminaire)
@@ -267,16 +268,16 @@ class LightingSolution:
             one = dataclasses.replace(
                 sc, luminaires=(dataclasses.replace(lum, network=names[0]),), area_sources=())
             e_pts = sign * direct_illuminance(one, self.points, self.normals).by_network[0]
-            e_fine = None if self.fine is None else sign * direct_illuminance(
-                one, self.fine.patches.centroid, self.fine.patches.normal).by_network[0]
+            e_fine = None if self.fine is None else sign * _sampled_direct(one, self.fine)
             if e_fine is not None:  # two levels: the elements' direct is the fine flux's mean
                 from ..radiosity._final_gather import element_means
 
                 e_patch = element_means(self.fine.patches, self.coarse.patches,
                                         e_fine[None])[0][0]
+            elif self.coarse.patches is not None:
+                e_patch = sign * _sampled_direct(one, self.coarse)
             else:
-                e_patch = None if self.coarse.patches is None else sign * direct_illuminance(
-                    one, self.coarse.patches.centroid, self.coarse.patches.normal).by_network[0]
+                e_patch = None
             deltas.append(_Delta(names.index(lum.network), lum.spectrum, e_pts, e_patch, e_fine))
         # same network and spectrum: one difference row, so one solve of W columns, not two
         a, b = deltas
@@ -444,3 +445,10 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
         timing_s={"solve": solve_s, "gather": gather_s},
         value=b,
     )
+
+
+def _sampled_direct(scene: Scene, level: Level) -> Float[np.ndarray, " patches"]:
+    """``scene``'s (one network's) direct light on ``level``'s patches as the solve took it:
+    the centroids', and the mean over the patch near a luminaire (``radiosity.near_light``)."""
+    e = direct_illuminance(scene, level.patches.centroid, level.patches.normal).by_network[0]
+    return e + near_light(scene, level.patches)[0][0]

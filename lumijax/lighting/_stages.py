@@ -35,6 +35,7 @@ from ..radiosity import (
     build_operator,
     cached_operator,
     mesh_patches,
+    near_light,
     partition,
     refine_patches,
 )
@@ -375,15 +376,19 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
 
 def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
                   report: Report) -> DirectLight:
-    """``direct`` with the direct light on the patches: on the operator's patches (one level),
-    or exact on the fine patches with the elements getting their area means (two levels: the
-    flux the solve reflects is the fine one)."""
+    """``direct`` with the direct light on the patches, each luminaire's light on a patch near
+    it the mean over the patch (:func:`~lumijax.radiosity.near_light`): on the operator's
+    patches (one level), or on the fine patches with the elements getting their area means
+    (two levels: the flux the solve reflects is the fine one)."""
     t = time.perf_counter()
     fine = None
     if meshed.fine is None:
         # in chunks of patches: the progress counts patches (equal work), not photometries
         patch = _direct_in_chunks(emission.scene, meshed.patches.centroid,
                                   meshed.patches.normal, report)
+        near, rays = near_light(emission.scene, meshed.patches)
+        patch = dataclasses.replace(patch, by_network=patch.by_network + near,
+                                    shadow_rays=patch.shadow_rays + rays)
     else:
         d_fine, patch = element_direct(emission.scene, meshed.fine, meshed.patches,
                                        progress=report)

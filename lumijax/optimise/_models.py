@@ -41,6 +41,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ..direct import PairSet, build_pairs
+from ..radiosity import near_samples
 from ..scene._frames import aim_rotation
 
 __all__ = ["DimmerLight", "AimLight", "build_aim_light", "operator_dtype", "DENSE_PATCHES",
@@ -96,6 +97,29 @@ class AimLight(eqx.Module):
     #: (:func:`diffuse_coupling`), coupled as the forward solve couples them; None: none.
     tau: Float[Array, " patches"] | None = None
     partner: Int[Array, " patches"] | None = None
+    #: The variable luminaires' near samples (:func:`lumijax.radiosity.near_samples`), the
+    #: receivers after the patches: each one's patch and weight (1/n² a piece, −1 the
+    #: centroid), so the model moves a patch's light as the forward solve takes it; None: none.
+    near_patch: Int[Array, " samples"] | None = None
+    near_weight: Float[Array, " samples"] | None = None
+
+    def patch_light(self, flat):
+        """The patches' direct light from the receivers' ``flat`` (points, patches, near
+        samples)."""
+        n, p = self.n_points, self.rho.shape[0]
+        on = flat[n:n + p]
+        if self.near_patch is None:
+            return on
+        return on + jax.ops.segment_sum(flat[n + p:] * self.near_weight.astype(flat.dtype),
+                                        self.near_patch, num_segments=p)
+
+    def spread(self, w_patch):
+        """The pull-back of :meth:`patch_light`: rows on the patches onto their receivers."""
+        if self.near_patch is None:
+            return w_patch
+        return jnp.concatenate(
+            [w_patch, w_patch[:, self.near_patch] * self.near_weight.astype(w_patch.dtype)],
+            axis=1)
 
     @property
     def transmission(self) -> tuple | None:
@@ -142,7 +166,7 @@ class AimLight(eqx.Module):
         if self.base_radiosity is not None:
             b = alpha @ self.base_radiosity
         if self.transport is not None:
-            d_patch = flat[n:] - alpha @ self.start_patch
+            d_patch = self.patch_light(flat) - alpha @ self.start_patch
             db = self.reflect(coupled_b0(self.rho, d_patch, self.transmission)).astype(e.dtype)
             e = e + jax.ops.segment_sum(db[self.gather_patch] * self.gather_weight,
                                         self.gather_point, num_segments=n)
@@ -204,7 +228,7 @@ class AimLight(eqx.Module):
                 if self.tau is not None:  # the pull-back of B₀'s τ ΔE[partner]
                     w_d = w_d.at[:, self.partner].add(self.tau * r)
                 w_alpha = w_alpha - w_d @ self.start_patch.T
-                w_flat = jnp.concatenate([w_e, w_d], axis=1)
+                w_flat = jnp.concatenate([w_e, self.spread(w_d)], axis=1)
             w_weight = jnp.zeros((w_e.shape[0], v), e.dtype)
             w_tilt = w_pan = w_weight
             for p, (e_p, d_tilt, d_pan) in zip(self.pairs, per_pair, strict=True):
@@ -374,9 +398,21 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     nrm = np.asarray(lighting.normals, np.float64)
     nrm = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
     has_patches = lighting.coarse.patches is not None and indirect
+    near = None
     if has_patches:
-        rcv = np.concatenate([pts, lighting.coarse.patches.centroid])
-        rcv_n = np.concatenate([nrm, lighting.coarse.patches.normal])
+        patches = lighting.coarse.patches
+        rcv = np.concatenate([pts, patches.centroid])
+        rcv_n = np.concatenate([nrm, patches.normal])
+        # the forward solve's near samples of the variable luminaires (their light on a patch
+        # near them is its mean over the patch: radiosity/_patch_samples.py)
+        near = near_samples(patches, np.array([lum.position for lum in sc.luminaires],
+                                              np.float64).reshape(-1, 3))
+        index = np.full(len(sc.luminaires), -1)
+        index[list(variable)] = np.arange(len(variable))
+        owner = index[near.luminaire[near.owner]]
+        mine = owner >= 0
+        near_owner, near_patch = owner[mine], near.patch[near.owner][mine]
+        near_weight, near_at = near.weight[mine], len(rcv)
     else:
         rcv, rcv_n = pts, nrm
     if pair_dtype is None:
@@ -390,6 +426,15 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
     # widened by the aim range: at the start aims they are the forward light
     pairs, _ = build_pairs(sc, rcv, rcv_n, variable, widen=widen, threshold=threshold,
                            dtype=pair_dtype)
+    if near is not None and len(near_owner):
+        mine_pairs, _ = build_pairs(sc, near.points[mine], near.normals[mine], variable,
+                                    widen=widen, threshold=threshold, dtype=pair_dtype,
+                                    owner=near_owner)
+        pairs = pairs + tuple(eqx.tree_at(lambda s: s.receiver, s, s.receiver + near_at)
+                              for s in mine_pairs)
+        rcv = np.concatenate([rcv, near.points[mine]])
+    else:
+        near = None
     k = len(sc.networks)
     network = np.array([net_index[lum.network] for lum in lums], np.int32)
     f = jnp.asarray
@@ -418,8 +463,14 @@ def build_aim_light(lighting, variable: list[int], tilt_span, pan_span, *, aims:
         fields["base_radiosity"] = f(np.asarray(lighting.coarse.radiosity, dtype))
     if has_patches:
         g = lighting.coarse.gather
+        start_patch = start[:, n_pts:n_pts + lighting.coarse.patches.n].copy()
+        if near is not None:
+            for row, s in zip(start_patch, start[:, near_at:], strict=True):
+                np.add.at(row, near_patch, near_weight * s)
+            fields.update(near_patch=f(near_patch.astype(np.int32)),
+                          near_weight=f(near_weight.astype(dtype)))
         fields.update(
-            start_patch=f(start[:, n_pts:].astype(dtype)), transport=lighting.transport,
+            start_patch=f(start_patch.astype(dtype)), transport=lighting.transport,
             rho=f(np.asarray(lighting.coarse.rho, dtype)), gather_point=f(g.point),
             gather_patch=f(g.patch), gather_weight=f(np.asarray(g.weight, dtype)),
         )

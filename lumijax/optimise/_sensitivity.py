@@ -230,7 +230,7 @@ def _full_light(model, lighting, crit):
     def at(x):
         alpha, tilt, pan, level = model.split(x)
         flat = model.direct(tilt, pan, alpha[model.network] * level)
-        patch = alpha @ fixed_patch + flat[n:]
+        patch = alpha @ fixed_patch + model.patch_light(flat)
         b0 = coupled_b0(model.rho, patch, model.transmission)
         b = solve_radiosity(model.transport, model.rho.astype(dt), b0.astype(dt)[:, None],
                             rtol=model.rtol, transmission=transmission_as(model.transmission, dt)

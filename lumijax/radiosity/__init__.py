@@ -30,6 +30,11 @@ from ._partition import (
     PartitionSettings as PartitionSettings,
     partition as partition,
 )
+from ._patch_samples import (
+    NearSamples as NearSamples,
+    near_light as near_light,
+    near_samples as near_samples,
+)
 from ._patches import (
     Patches as Patches,
     mesh_patches as mesh_patches,

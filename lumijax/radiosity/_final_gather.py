@@ -25,6 +25,7 @@ applied as one sparse product, never as a dense ``(links, groups, wavelengths)``
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -187,15 +188,20 @@ def fine_transmission(spectral, elements, fine) -> tuple | None:
 
 
 def element_direct(gscene, fine, elements, *, progress=None):
-    """``(fine, elements)`` direct light (:class:`lumijax.direct.DirectLighting`): exact on the
-    fine patches; each element gets the direct flux of the fine patches in it (those of the
-    same source triangle whose nearest element centroid it is) over its area, so the direct
-    flux the solve reflects is the fine one exactly, not a centroid sample of a spot's edge. An element holding no fine
-    centroid (possible only where the two cuts of a sliver differ) is sampled at its own
-    centroid."""
+    """``(fine, elements)`` direct light (:class:`lumijax.direct.DirectLighting`): on the fine
+    patches, each luminaire's light on a patch near it the mean over the patch
+    (:func:`~lumijax.radiosity.near_light`); each element gets the direct flux of the fine
+    patches in it (those of the same source triangle whose nearest element centroid it is)
+    over its area, so the direct flux the solve reflects is the fine one, not a centroid
+    sample of a spot's edge. An element holding no fine centroid (possible only where the two
+    cuts of a sliver differ) is sampled at its own centroid."""
     from ..direct import DirectLighting, direct_illuminance
+    from ._patch_samples import near_light
 
     d_fine = direct_illuminance(gscene, fine.centroid, fine.normal, progress=progress)
+    near, near_rays = near_light(gscene, fine)
+    d_fine = dataclasses.replace(d_fine, by_network=d_fine.by_network + near,
+                                 shadow_rays=d_fine.shadow_rays + near_rays)
     by, empty = element_means(fine, elements, d_fine.by_network)
     rays = d_fine.shadow_rays
     if empty.any():

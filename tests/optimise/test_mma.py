@@ -53,13 +53,18 @@ _TIGHTEN = 1.005  # a bound raised 0.5 %: small against the price's own change a
 @pytest.mark.parametrize("which", [0, 1])
 def test_mma_aims_price_predicts_a_resolve(facade_results, which):
     """test_augmented's facade aims design (Eavg ≥ 60 %, U0 ≥ 80 % of the start's, both active):
-    each of MMA's prices × a 0.5 % raise of its bound is what the least power rises by when
-    SLSQP (independent of MMA) solves the problem at both bounds, within 3 % (the envelope
-    theorem, to first order; the U0 price moves ~3 % per 0.5 % of its bound here, so the
-    backward difference is 5.5 W and the central one 3.4 % off). Measured (since the gather
-    finds each ray's patch exactly): Eavg 0.117839 W/lx; U0 5.767 W against the re-solves'
-    5.671 W (1.7 %; SLSQP's own price, converged to 10⁻⁶, 5.758 W). Before the last level waited for the margins within 10⁻⁵
-    (``_mma._FEAS_STOP``), MMA's U0 price was 5.46 W (5.2 % off): this test failed."""
+    each of MMA's prices is SLSQP's (independent of MMA) at the same bounds within 1 %, and the
+    rise of the least power when SLSQP solves the problem again with that bound raised 0.5 %,
+    over the raise, lies between the prices at the two bounds (the envelope theorem: the rise
+    is the price's integral along the bound).
+
+    The U0 price moves fast along its bound (the point of least light changes as the aims
+    turn): measured with the patches' direct light a mean over the patch near a luminaire
+    (radiosity/_patch_samples.py), SLSQP's price 5.974 W at the start's bound, 5.544 W 0.25 %
+    above and 5.490 W 0.5 % above, so the rise over the raise is 5.72 W, 4 % below the price
+    at the bound it starts from: a one-sided comparison at 3 % failed, with MMA's price (5.957
+    W) 0.3 % from SLSQP's. The Eavg price stays at 0.11785 W/lx. Before the last level waited
+    for the margins within 10⁻⁵ (``_mma._FEAS_STOP``), MMA's U0 price was 5.2 % off SLSQP's."""
     study, results = facade_results
     factors = [1.0, 1.0]
 
@@ -78,8 +83,9 @@ def test_mma_aims_price_predicts_a_resolve(facade_results, which):
         tight = solve_constrained(tight_prob, x0, lo, hi, method="slsqp")
         assert mm.success and base.success and tight.success
         assert mm.active[which] and mm.prices[which] > 0
+        assert mm.prices[which] == pytest.approx(base.prices[which], rel=0.01)
         delta = (float(tight_prob.constraints[which].bound)
                  - float(prob.constraints[which].bound))
-        cost = tight.objective - base.objective
-        assert cost > 0
-        assert mm.prices[which] * delta == pytest.approx(cost, rel=0.03)
+        slope = (tight.objective - base.objective) / delta
+        ends = sorted([mm.prices[which], tight.prices[which]])
+        assert ends[0] * 0.99 <= slope <= ends[1] * 1.01
