@@ -39,6 +39,8 @@ PIECE_PER_DISTANCE = 0.5
 MOST_PER_EDGE = 4
 
 _PARTS = 4  # parts of the samples lit on threads
+#: Patches × luminaires above which the patches near a luminaire are found by a k-d tree.
+_BRUTE_FORCE_PAIRS = 4_000_000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,19 +100,15 @@ def _near_pairs(patches: Patches, sources):
     empty = np.zeros(0, np.int64)
     if not len(sources) or not patches.n:
         return empty, empty, empty
-    from scipy.spatial import cKDTree
-
     vertices = np.asarray(patches.vertices, np.float64)
     centroid = np.asarray(patches.centroid, np.float64)
     size = np.linalg.norm(vertices - np.roll(vertices, 1, axis=1), axis=2).max(axis=1)
     reach = np.linalg.norm(vertices - centroid[:, None], axis=2).max(axis=1)
     # n ≥ 2 needs size > PIECE_PER_DISTANCE · (distance − reach)
     radius = float((size / PIECE_PER_DISTANCE + reach).max())
-    near = cKDTree(centroid).query_ball_point(sources, radius)
-    lum = np.repeat(np.arange(len(sources)), [len(p) for p in near])
+    lum, pat = _within(sources, centroid, radius)
     if not len(lum):
         return empty, empty, empty
-    pat = np.concatenate([np.asarray(p, np.int64) for p in near])
     clearance = np.linalg.norm(centroid[pat] - sources[lum], axis=1) - reach[pat]
     with np.errstate(divide="ignore", invalid="ignore"):
         want = np.where(clearance > 0, np.ceil(size[pat] / (PIECE_PER_DISTANCE * clearance)),
@@ -119,6 +117,28 @@ def _near_pairs(patches: Patches, sources):
     keep = n >= 2
     order = np.lexsort((pat[keep], lum[keep]))
     return lum[keep][order], pat[keep][order], n[keep][order]
+
+
+def _within(sources, points, radius: float):
+    """``(source, point)`` index pairs closer than ``radius`` (m): by comparing every pair (in
+    chunks) in a small scene, where importing scipy.spatial (0.4 s) would cost more than the
+    search; by a k-d tree of the points in a large one."""
+    if len(sources) * len(points) > _BRUTE_FORCE_PAIRS:
+        from scipy.spatial import cKDTree
+
+        near = cKDTree(points).query_ball_point(sources, radius)
+        return (np.repeat(np.arange(len(sources)), [len(p) for p in near]),
+                np.concatenate([np.asarray(p, np.int64) for p in near]))
+    lum, pat = [], []
+    step = max(1, _BRUTE_FORCE_PAIRS // (16 * len(sources)))
+    for a in range(0, len(points), step):
+        d = points[a:a + step, None] - sources[None]
+        p, s = np.nonzero(np.einsum("psk,psk->ps", d, d) < radius * radius)
+        lum.append(s)
+        pat.append(p + a)
+    lum_, pat_ = np.concatenate(lum), np.concatenate(pat)
+    order = np.lexsort((pat_, lum_))
+    return lum_[order], pat_[order]
 
 
 def near_light(scene, patches: Patches) -> tuple[Float[np.ndarray, "net patches"], int]:

@@ -108,3 +108,18 @@ def test_far_patches_keep_their_centroids():
 def test_no_luminaires():
     near = near_samples(_floor(0.3), np.zeros((0, 3)))
     assert len(near.patch) == 0 and len(near.points) == 0
+
+
+def test_the_brute_force_and_the_tree_find_the_same_pairs(monkeypatch):
+    """A small scene compares every (luminaire, patch) pair, a large one asks a k-d tree: the
+    same pairs, pieces and samples either way."""
+    import lumijax.radiosity._patch_samples as ps
+
+    patches = _floor(0.15)
+    sources = np.array([[0.3, 0.3, 0.05], [0.9, 0.6, 0.2], [5.0, 5.0, 5.0]])
+    brute = near_samples(patches, sources)
+    monkeypatch.setattr(ps, "_BRUTE_FORCE_PAIRS", 0)
+    tree = near_samples(patches, sources)
+    assert len(brute.patch) > 10
+    for field in ("luminaire", "patch", "per_edge", "owner", "weight", "points"):
+        np.testing.assert_array_equal(getattr(brute, field), getattr(tree, field))
