@@ -38,7 +38,8 @@ PIECE_PER_DISTANCE = 0.5
 #: would otherwise ask for unbounded n.
 MOST_PER_EDGE = 4
 
-_PARTS = 4  # parts of the samples lit on threads
+_PARTS = 4  # parts of the samples lit on threads, at least
+_PART_SAMPLES = 1 << 21  # samples of a part, at most
 #: Patches × luminaires above which the patches near a luminaire are found by a k-d tree.
 _BRUTE_FORCE_PAIRS = 4_000_000
 
@@ -75,7 +76,11 @@ def near_samples(patches: Patches,
     """The pairs of luminaires at ``sources`` (m) and ``patches`` whose light needs more than
     the centroid (module docstring), with their samples."""
     sources = np.asarray(sources, np.float64).reshape(-1, 3)
-    lum, pat, n = _near_pairs(patches, sources)
+    return _samples(patches, *_near_pairs(patches, sources))
+
+
+def _samples(patches: Patches, lum, pat, n) -> NearSamples:
+    """The samples of the pairs ``(lum, pat, n)`` (:class:`NearSamples`)."""
     count = n * n + 1
     owner = np.repeat(np.arange(len(lum)), count)
     first = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)
@@ -144,8 +149,8 @@ def _within(sources, points, radius: float):
 def near_light(scene, patches: Patches) -> tuple[Float[np.ndarray, "net patches"], int]:
     """What the near pairs' means add to ``scene``'s centroid light on ``patches`` (lx per
     network at dimmer 1), and the shadow rays it cast: every sample lit by its own pair's
-    luminaire alone (:class:`NearSamples`), in one pass over the pairs
-    (:func:`lumijax.direct._pairs.pair_chunks` with an owner per receiver)."""
+    luminaire alone (:class:`NearSamples`; :func:`lumijax.direct._pairs.pair_chunks` with an
+    owner per receiver), in parts of whole pairs."""
     from ..direct._pairs import PairStats, pair_chunks
 
     net_index = {n.name: k for k, n in enumerate(scene.networks)}
@@ -153,28 +158,32 @@ def near_light(scene, patches: Patches) -> tuple[Float[np.ndarray, "net patches"
     out = np.zeros((len(scene.networks), patches.n))
     positions = np.array([lum.position for lum in scene.luminaires],
                          np.float64).reshape(-1, 3)
-    near = near_samples(patches, positions)
-    if not len(near.luminaire):
+    lum, pat, n = _near_pairs(patches, positions)
+    if not len(lum):
         return out, 0
     caster = scene.raycaster if len(scene.triangles) else None
-    owner = near.luminaire[near.owner]
-    patch, weight = near.patch[near.owner], near.weight  # each receiver's row and weight
-    # parts of whole luminaires' samples, on threads (Embree and NumPy's loops release the GIL)
-    cuts = np.searchsorted(owner, np.quantile(owner, np.linspace(0, 1, _PARTS + 1)[1:-1]))
-    parts = [p for p in np.split(np.arange(len(owner)), np.unique(cuts)) if len(p)]
+    # parts of whole pairs, each made and lit on its own, on threads (Embree and NumPy's loops
+    # release the GIL): the memory is a few parts' at any scale (the LoD-0 courtyard has
+    # 1.4·10⁶ pairs, 1.2·10⁷ samples)
+    ends = np.cumsum(n * n + 1)
+    size = min(_PART_SAMPLES, -(-int(ends[-1]) // _PARTS))
+    cuts = np.unique(np.searchsorted(ends, np.arange(size, int(ends[-1]), size), "right"))
+    spans = [slice(a, b) for a, b in zip([0, *cuts], [*cuts, len(lum)], strict=True) if b > a]
 
-    def lit(at):
+    def lit(span):
+        near = _samples(patches, lum[span], pat[span], n[span])
+        owner, patch = near.luminaire[near.owner], near.patch[near.owner]
         part = np.zeros_like(out)
         stats = PairStats(timing_s={})
-        for c in pair_chunks(scene, near.points[at], near.normals[at], caster=caster,
-                             stats=stats, owner=owner[at]):
-            flat = network[c.luminaire] * patches.n + patch[at][c.receiver]
-            part.reshape(-1)[:] += np.bincount(flat, weights=c.light * weight[at][c.receiver],
+        for c in pair_chunks(scene, near.points, near.normals, caster=caster, stats=stats,
+                             owner=owner):
+            flat = network[c.luminaire] * patches.n + patch[c.receiver]
+            part.reshape(-1)[:] += np.bincount(flat, weights=c.light * near.weight[c.receiver],
                                                minlength=out.size)
         return part, stats.shadow_rays
 
     rays = 0
-    for part, r in threaded_map(lit, parts):
+    for part, r in threaded_map(lit, spans):
         out += part
         rays += r
     return out, rays
