@@ -62,7 +62,8 @@ def solve_lighting(
         return _timed(sol, t0)
     meshed = st.mesh(scene, emission, settings)
     transport = st.build_transport(scene, meshed, settings, cache_dir, report("form factors"))
-    direct = st.light_patches(direct, emission, meshed, report("direct light on patches"))
+    direct = st.light_patches(direct, emission, meshed, report("direct light on patches"),
+                              report("direct light near luminaires"))
     sampling = st.sample_spectra(scene, meshed, settings)
     rays = st.cast_gather_rays(points, normals, meshed, scene, settings,
                                report("gathering onto grids"))

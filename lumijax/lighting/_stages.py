@@ -375,18 +375,19 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
 
 
 def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
-                  report: Report) -> DirectLight:
+                  report: Report, near_report: Report | None = None) -> DirectLight:
     """``direct`` with the direct light on the patches, each luminaire's light on a patch near
     it the mean over the patch (:func:`~lumijax.radiosity.near_light`): on the operator's
     patches (one level), or on the fine patches with the elements getting their area means
-    (two levels: the flux the solve reflects is the fine one)."""
+    (two levels: the flux the solve reflects is the fine one). ``near_report`` is told the
+    near samples lit (one level)."""
     t = time.perf_counter()
     fine = None
     if meshed.fine is None:
         # in chunks of patches: the progress counts patches (equal work), not photometries
         patch = _direct_in_chunks(emission.scene, meshed.patches.centroid,
                                   meshed.patches.normal, report)
-        near, rays = near_light(emission.scene, meshed.patches)
+        near, rays = near_light(emission.scene, meshed.patches, progress=near_report)
         patch = dataclasses.replace(patch, by_network=patch.by_network + near,
                                     shadow_rays=patch.shadow_rays + rays)
     else:

@@ -5,16 +5,16 @@ mean to second order in size / distance, but under a lamp hung close to a surfac
 falls like 1/d² across the patch and the centroid misjudges the flux: the office of
 ``benchmarks/small.py`` (lamps 0.2 m under the ceiling, 4,960 patches) read its point
 illuminance −0.27 % low on average from that alone (docs/radiosity.md, "Direct light on a
-patch"). So for each luminaire, a patch near it takes that luminaire's light as the mean over
+patch near a luminaire"). So for each luminaire, a patch near it takes that luminaire's light as the mean over
 n × n congruent pieces (midpoint grid, equal areas, so equal weights), n the least for which a
 piece's longest edge is at most :data:`PIECE_PER_DISTANCE` times the patch's clearance from
 *that* luminaire, at most :data:`MOST_PER_EDGE`. Every other (luminaire, patch) pair keeps the
-centroid's value, to the bit.
+centroid's value.
 
 The pieces of a pair depend on that luminaire's position and the patch only, never on the
-other luminaires: a luminaire's light on the patches is the same in any scene that holds it,
-so a study of some of the luminaires gives exactly their share of the whole, and replacing a
-luminaire takes out exactly what it put in (:meth:`~lumijax.lighting.LightingSolution.replace_luminaire`).
+other luminaires: a luminaire's light on the patches is the same in any scene that holds it
+(to rounding), so a study of some of the luminaires gives their share of the whole, and
+replacing a luminaire takes out what it put in (:meth:`~lumijax.lighting.LightingSolution.replace_luminaire`).
 """
 
 from __future__ import annotations
@@ -146,11 +146,12 @@ def _within(sources, points, radius: float):
     return lum_[order], pat_[order]
 
 
-def near_light(scene, patches: Patches) -> tuple[Float[np.ndarray, "net patches"], int]:
+def near_light(scene, patches: Patches, *, progress=None
+               ) -> tuple[Float[np.ndarray, "net patches"], int]:
     """What the near pairs' means add to ``scene``'s centroid light on ``patches`` (lx per
     network at dimmer 1), and the shadow rays it cast: every sample lit by its own pair's
     luminaire alone (:class:`NearSamples`; :func:`lumijax.direct._pairs.pair_chunks` with an
-    owner per receiver), in parts of whole pairs."""
+    owner per receiver), in parts of whole pairs. ``progress(done, total)`` counts samples."""
     from ..direct._pairs import PairStats, pair_chunks
 
     net_index = {n.name: k for k, n in enumerate(scene.networks)}
@@ -182,8 +183,13 @@ def near_light(scene, patches: Patches) -> tuple[Float[np.ndarray, "net patches"
                                                minlength=out.size)
         return part, stats.shadow_rays
 
-    rays = 0
-    for part, r in threaded_map(lit, spans):
+    rays, done = 0, 0
+    if progress is not None:
+        progress(0, int(ends[-1]))
+    for span, (part, r) in zip(spans, threaded_map(lit, spans), strict=True):
         out += part
         rays += r
+        done = int(ends[span.stop - 1])
+        if progress is not None:
+            progress(done, int(ends[-1]))
     return out, rays

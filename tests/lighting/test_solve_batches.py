@@ -58,6 +58,22 @@ def test_patch_stage_reports_patches(write_study, monkeypatch):
     assert len(done) > -(-n // 40) + 1 and set(done) & set(range(1, 40))
 
 
+def test_near_stage_reports_samples(write_study):
+    """The light of luminaires on the patches near them (radiosity/_patch_samples.py) is its
+    own stage: from 0 to every near sample, never back."""
+    from lumijax.radiosity import near_samples
+
+    lighting, seen = _compute(write_study(box_room(
+        'precision = "float64"\ntarget_patches = 60\ncache = false', networks=("a", "b", "c"),
+        grid="nu = 4\nnv = 3")))
+    positions = np.array([lum.position for lum in lighting.scene.luminaires])
+    total = len(near_samples(lighting.coarse.patches, positions).points)
+    stage = [(d, t) for s, d, t in seen if s == "direct light near luminaires"]
+    done = [d for d, t in stage]
+    assert total > 0 and {t for _, t in stage} == {total}
+    assert done[0] == 0 and done[-1] == total and done == sorted(done) and len(done) > 2
+
+
 def test_chunks_on_threads_are_the_chunks_one_after_another(write_study, monkeypatch):
     """The patch stage's chunks of direct light and the grid's gather chunks run on threads;
     each is computed as it would be alone, so the study's numbers are the same bit for bit."""
