@@ -426,7 +426,7 @@ def _kept(d, axis, cos_support, normal, from_centre, lo, hi):
     return ok
 
 
-def _owned_pairs(batch, owner, pts, nrm, axis, cos_support, banded):
+def _owned_pairs(batch, owner, pts, nrm, axis, cos_support):
     """Each receiver's pairs with the rows of its ``owner`` luminaire in ``batch`` whose
     distance band holds it, kept as :func:`_tile_pairs` keeps them, in parts of at most about
     :data:`_EXPAND` pairs."""
@@ -460,9 +460,8 @@ def _owned_pairs(batch, owner, pts, nrm, axis, cos_support, banded):
         src = order[np.repeat(row0[r0:r1], count[r0:r1]) + np.arange(len(rcv)) - start]
         off = pts[rcv] - batch.position[src]
         n = nrm[rcv]
-        cen = pts[rcv] - batch.centre[src] if banded else None
-        keep = _kept(off.T, axis[src].T, cos_support[src], n.T,
-                     None if cen is None else cen.T, batch.lo[src], batch.hi[src])
+        # the band was chosen above by the same float64 operations: no second test of it
+        keep = _kept(off.T, axis[src].T, cos_support[src], n.T, None, None, None)
         src, rcv, off = src[keep], rcv[keep], off[keep]
         w, gain = _geometry(off, n[keep], batch.scale[src])
         yield src, rcv, w, gain
@@ -564,7 +563,7 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
         n_src = len(batch.position)
         if owner is not None:  # each receiver its own luminaire's: no tiles to cull
             t0 = time.perf_counter()
-            for part in _owned_pairs(batch, owner, points, normals, axis, cos_src, banded):
+            for part in _owned_pairs(batch, owner, points, normals, axis, cos_src):
                 pending.append(part)
                 pending_n += len(part[0])
                 stats.candidate_pairs += len(part[0])
