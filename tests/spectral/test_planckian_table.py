@@ -32,3 +32,18 @@ def test_cct_does_not_evaluate_planck_s_law(monkeypatch):
         assert float(_cie.uv_to_cct_ohno2013(uv)) == pytest.approx(2856.0, abs=3.0)
     finally:
         _cie._planckian_table.cache_clear()
+
+
+def test_the_nearest_row_is_the_argmin_over_every_row():
+    """Ohno's search compares only the run of rows within reach of the nearest of every 16th
+    (cie._nearest_row): the same row as the argmin over all 6,849, first of equals included,
+    for points on the rows themselves, near the locus and anywhere in the uv plane."""
+    table = _cie._planckian_table()
+    rng = np.random.default_rng(7)
+    k = rng.integers(0, len(table), 3000)
+    pts = np.vstack([table[k, 1:], table[k, 1:] + rng.normal(0, 0.01, (3000, 2)),
+                     table[k, 1:] + rng.normal(0, 0.1, (3000, 2)),
+                     rng.uniform([0.0, 0.0], [0.7, 0.6], (3000, 2))])
+    every = np.argmin((table[None, :, 1] - pts[:, None, 0]) ** 2
+                      + (table[None, :, 2] - pts[:, None, 1]) ** 2, axis=1)
+    np.testing.assert_array_equal(_cie._nearest_row(table, pts), every)
