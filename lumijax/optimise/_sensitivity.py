@@ -229,8 +229,9 @@ def _full_light(model, lighting, crit):
 
     def at(x):
         alpha, tilt, pan, level = model.split(x)
-        flat = model.direct(tilt, pan, alpha[model.network] * level)
-        patch = alpha @ fixed_patch + model.patch_light(flat)
+        weight = alpha[model.network] * level
+        flat = model.direct(tilt, pan, weight)
+        patch = alpha @ fixed_patch + model.patch_light(flat, tilt, pan, weight)
         b0 = coupled_b0(model.rho, patch, model.transmission)
         b = solve_radiosity(model.transport, model.rho.astype(dt), b0.astype(dt)[:, None],
                             rtol=model.rtol, transmission=transmission_as(model.transmission, dt)
