@@ -23,7 +23,7 @@ the start aims, and the change of inter-reflected light is one radiosity solve o
 patch direct light, ``ΔB = (I − ρF)⁻¹ ρ ΔE_patch``, gathered onto the points, ``G ΔB``. Its
 gradient costs one adjoint solve (lineax solves ``(I − ρF)ᵀ`` by implicit differentiation). At
 the starting aims the model's direct light is the forward direct light to float precision
-(tests/optimise/test_pair_set.py); elsewhere it differs from a full re-computation in three
+(tests/optimise/test_pair_set.py); elsewhere it differs from a full re-computation in four
 documented ways: the sub-sources of a large opening keep their start positions (they turn with
 the aim about its centre in a re-computation), the LM-63 TILT factor keeps its start value (it
 follows the lamp's real tilt in a re-computation: the gain holds it), the change of
