@@ -87,22 +87,13 @@ class PairSet(eqx.Module):
         :meth:`light` compiles each of its operations for each new count of pairs (~0.02-0.06 s
         an operation: seconds for the aim model's pair sets)."""
         dt = self.gain.dtype
-        rot = np.asarray(rotations, np.float64).reshape(-1, 3, 3)
-        rot = np.concatenate([rot, np.broadcast_to(np.eye(3), (_pow2(len(rot)) - len(rot), 3, 3))])
-        rot_j = to_device(rot, dt)
+        rot_j = _rotation_table(rotations, dt)
         lum, w, gain = (np.asarray(a) for a in (self.luminaire, self.direction, self.gain))
         out = np.empty(len(lum))
         for a in range(0, len(lum), _PAIRS_PER_CALL):
             s = slice(a, a + _PAIRS_PER_CALL)
-            n = len(lum[s])
-            pad = _bucket(n) - n
-            w_p = np.zeros((n + pad, 3), dt)
-            w_p[:n], w_p[n:, 2] = w[s], -1.0  # padding: straight down, gain 0
-            out[s] = np.asarray(_light_block(
-                self.distribution.kernel, rot_j, to_device(np.pad(lum[s], (0, pad)), np.int32),
-                to_device(w_p), to_device(np.pad(gain[s], (0, pad)))), np.float64)[:n]
+            out[s] = _stored_light(self.distribution, rot_j, lum[s], w[s], gain[s], dt)
         return out
-
 
 class PairChunk(NamedTuple):
     """A batch of unshadowed-then-shadowed pairs of one photometry (numpy, float64), with the
@@ -516,6 +507,29 @@ def _light_block(distribution, rotations, luminaire, direction, gain):
     return pair_light(distribution, rotations[luminaire], direction, gain)
 
 
+def _rotation_table(rotations, dtype=None):
+    """Luminaire rotations on the device, padded with identities to a power of two so that
+    selections of other sizes reuse the compiled kernel (numpy → device without an eager
+    kernel: ``_jit_cache.to_device``; ``dtype`` None: JAX's canonical float)."""
+    rot = np.asarray(rotations, np.float64).reshape(-1, 3, 3)
+    pad = np.broadcast_to(np.eye(3), (_pow2(len(rot)) - len(rot), 3, 3))
+    return to_device(np.concatenate([rot, pad]), dtype)
+
+
+def _stored_light(dist, rot_j, lum, w, gain, dtype=None) -> np.ndarray:
+    """The light (lx, float64) of at most :data:`_PAIRS_PER_CALL` pairs by the stored kernel
+    :func:`_light_block`, padded to its shape bucket; ``dtype`` None: JAX's canonical float."""
+    n = len(lum)
+    pad = _bucket(n) - n
+    w_p = np.zeros((n + pad, 3), np.float64 if dtype is None else dtype)
+    w_p[:n], w_p[n:, 2] = w, -1.0  # padding: straight down, gain 0
+    # the padded table (CandelaDistribution.kernel): one compiled kernel for every photometry
+    # of a type and shape bucket
+    return np.array(_light_block(dist.kernel, rot_j, to_device(np.pad(lum, (0, pad)), np.int32),
+                                 to_device(w_p), to_device(np.pad(gain, (0, pad)), dtype)),
+                    dtype=np.float64)[:n]
+
+
 def _geometry(offsets: np.ndarray, normals: np.ndarray, scale: np.ndarray, response=None,
               receiver=None):
     """Unit directions and gains ``scale · cos θ_r / d²`` (m⁻²) from offsets receiver − source
@@ -560,8 +574,7 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     rot_all = np.array([scene.luminaires[i].rotation for i in sel]).reshape(-1, 3, 3)
     # numpy → device without an eager kernel (_jit_cache.to_device), padded with identities to
     # a power of two so that selections of other sizes reuse the compiled kernel
-    rot_pad = np.broadcast_to(np.eye(3), (_pow2(len(rot_all)) - len(rot_all), 3, 3))
-    rot_j = to_device(np.concatenate([rot_all, rot_pad]))
+    rot_j = _rotation_table(rot_all)
     widen = np.zeros(len(sel)) if widen is None else np.asarray(widen, np.float64)
     # tile order: a tile is a slice (receivers with an owner are paired directly, no tiles)
     tiles = Tiles.build(points) if owner is None else None
@@ -641,14 +654,7 @@ def _chunk(batch, dist, s_idx, r_idx, w, gain, points, rot_j, caster, all_rays, 
     t0 = time.perf_counter()
     lum = batch.luminaire[s_idx]
     n = len(s_idx)
-    pad = _bucket(n) - n
-    w_p = np.zeros((n + pad, 3))
-    w_p[:n], w_p[n:, 2] = w, -1.0  # padding: straight down, gain 0
-    # the padded table (CandelaDistribution.kernel): one compiled kernel for every photometry
-    # of a type and shape bucket
-    e = np.array(_light_block(dist.kernel, rot_j, to_device(np.pad(lum, (0, pad)).astype(np.int32)),
-                              to_device(w_p), to_device(np.pad(gain, (0, pad)))),
-                 dtype=np.float64)[:n]
+    e = _stored_light(dist, rot_j, lum, w, gain)
     t1 = time.perf_counter()
     timing["kernel"] += t1 - t0
     keep = np.ones(n, bool)
