@@ -10,7 +10,11 @@ With ``--transport sampled`` the ray-sampled operator (``radiosity/_sampled.py``
 instead: per patch count its stored MiB, links per patch, the process's peak RSS, the build's
 rays/s against Embree's raw first-hit rate on the same scene in the same run (the same kind of
 rays: cosine-weighted from patch centroids, same batch size, spread over the scene, on as many
-threads as the build: ``_raw_rate``), and the growth exponent. With
+threads as the build: ``_raw_rate``), and the growth exponent. The build's patch lookup is an
+XLA kernel compiled for its mesh's size class (``PatchLocator.tables``): a machine's first build
+of a class compiles it (~0.2–0.3 s), later ones — and every later process, through the
+command line's compilation cache — do not, so each size's compile is timed apart before the
+build and printed beside it, with the rate both without and with it. With
 ``--accuracy N`` one mesh of about N patches is solved with the block operator (hierarchical,
 default settings) and with the sampled one at each ``--rays``, lit by the study's own
 luminaires (direct light with shadows, every network at dimmer 1, luminous), ρ 0.6 on
@@ -203,6 +207,19 @@ def _raw_rate(caster, p, rays: int, batch: int = 8192, threads: int | None = Non
     return n / wall
 
 
+def _compile_lookup(p, tri, rays: int) -> float:
+    """Seconds to compile the build's patch lookup (``_front_hits``) for the tables of mesh
+    ``p``, from a call on a batch of misses; 0 where its size class is compiled already."""
+    from lumijax.radiosity import PatchLocator, SampledSettings
+
+    locator, n = PatchLocator(p, tri), SampledSettings().batch * rays
+    front = np.zeros((len(tri), 3), np.float32)
+    t = time.perf_counter()
+    locator.front_hits(np.full(n, -1, np.int32), np.zeros((n, 2), np.float32),
+                       np.zeros((n, 3), np.float32), front)
+    return time.perf_counter() - t
+
+
 def sampled_main(args) -> None:
     from lumijax.lighting._pipeline import auto_patch_size
     from lumijax.radiosity import SampledSettings, build_sampled, mesh_patches
@@ -230,6 +247,7 @@ def sampled_main(args) -> None:
             build_sampled(p, tri, SampledSettings(rays_per_patch=args.rays[0]), caster=caster)
             print(f"  first build of {p.n:,} patches, compiling the kernels (not in the table): "
                   f"{time.perf_counter() - t:.1f} s", flush=True)
+        compile_s = _compile_lookup(p, tri, args.rays[0])
         raw = _raw_rate(caster, p, args.rays[0], SampledSettings().batch)
         t = time.perf_counter()
         op = build_sampled(p, tri, SampledSettings(rays_per_patch=args.rays[0]), caster=caster)
@@ -239,17 +257,21 @@ def sampled_main(args) -> None:
         growth = (np.log(op.nbytes / last[1]) / np.log(p.n / last[0]) if last else float("nan"))
         last = (p.n, op.nbytes)
         rows.append(dict(patches=p.n, rays=i["rays"], build_s=dt, ray_s=i["ray_time_s"],
+                         compile_s=compile_s,
                          rate=i["rays"] / dt, raw=0.5 * (raw + raw2), links=i["links_per_patch"],
                          mib=op.nbytes / 2**20, rss=_rss_gib(), growth=growth))
         print(f"  {p.n:,} patches: {dt:.1f} s, {op.nbytes / 2**20:.1f} MiB", flush=True)
         del op
-    print("\n| patches | rays | build (s) | in Embree (thread-s) | build rays/s | raw Embree rays/s | "
-          "ratio | links per patch | operator MiB | peak RSS GiB | growth exponent |")
-    print("|" + "---|" * 11)
+    print("\n| patches | rays | lookup's compile (s) | build (s) | in Embree (thread-s) | "
+          "build rays/s | raw Embree rays/s | ratio | ratio with the compile | links per patch | "
+          "operator MiB | peak RSS GiB | growth exponent |")
+    print("|" + "---|" * 13)
     for r in rows:
-        print(f"| {r['patches']:,} | {r['rays'] / 1e6:.1f} M | {r['build_s']:.1f} | "
-              f"{r['ray_s']:.1f} | {r['rate'] / 1e6:.2f} M | {r['raw'] / 1e6:.2f} M | "
-              f"{r['rate'] / r['raw']:.0%} | {r['links']:.0f} | {r['mib']:.1f} | "
+        with_compile = r["rays"] / (r["build_s"] + r["compile_s"]) / r["raw"]
+        print(f"| {r['patches']:,} | {r['rays'] / 1e6:.1f} M | {r['compile_s']:.2f} | "
+              f"{r['build_s']:.1f} | {r['ray_s']:.1f} | {r['rate'] / 1e6:.2f} M | "
+              f"{r['raw'] / 1e6:.2f} M | {r['rate'] / r['raw']:.0%} | {with_compile:.0%} | "
+              f"{r['links']:.0f} | {r['mib']:.1f} | "
               f"{r['rss']:.2f} | {r['growth']:.2f} |")
 
 

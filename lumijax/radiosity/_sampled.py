@@ -33,7 +33,6 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -254,18 +253,34 @@ class PatchLocator:
         return out
 
     def tables(self) -> dict:
-        """The lookup's arrays on the default device (made once; :func:`_patch_of`)."""
+        """The lookup's arrays on the default device (made once; :func:`_patch_of`).
+
+        Each is padded to its size class (:func:`~lumijax.radiosity._solve.patch_bucket`: at
+        most an eighth more above 4,096 rows), the triangles' with "no patch" rows, the
+        nodes' and leaves' with rows no root reaches: the compiled lookup depends on the
+        shapes only, so meshes of about the same size — the sizes of a sweep, a new study
+        of a room — share one program instead of compiling their own (~0.3 s each)."""
+        from ._solve import patch_bucket
+
         t = self.__dict__.get("_tables")
         if t is None:
             last = max(len(self.leaf_patch) - 1, 0)  # the "none" node: any point stays, finds −1
+            rows = patch_bucket(max(len(self.kind), 1))
+
+            def per_triangle(a, fill):
+                return jnp.asarray(_padded(np.asarray(a, np.int32), rows, fill))
+
+            node = self._packed()
             t = self._tables = dict(
-                kind=jnp.asarray(self.kind, jnp.int32), first=jnp.asarray(self.first, jnp.int32),
-                n=jnp.asarray(self.n, jnp.int32),
-                root=jnp.asarray(np.where(self.root >= 0, self.root, self.n_internal + last),
-                                 jnp.int32),
-                node=jnp.asarray(self._packed()),
-                leaf=jnp.asarray(self.leaf_patch, jnp.int32),
-                n_internal=jnp.asarray(self.n_internal, jnp.int32))
+                kind=per_triangle(self.kind, 0), first=per_triangle(self.first, 0),
+                n=per_triangle(self.n, 0),
+                root=per_triangle(np.where(self.root >= 0, self.root, self.n_internal + last),
+                                  self.n_internal + last),
+                node=jnp.asarray(_padded(node, patch_bucket(len(node)), 0.0)),
+                leaf=jnp.asarray(_padded(self.leaf_patch.astype(np.int32),
+                                         patch_bucket(len(self.leaf_patch)), -1)),
+                n_internal=jnp.asarray(self.n_internal, jnp.int32),
+                height=jnp.asarray(self.height, jnp.int32))
         return t
 
     def _packed(self) -> np.ndarray:
@@ -296,7 +311,7 @@ class PatchLocator:
         size = max(1024, 1 << max(k - 1, 0).bit_length())  # a few shapes, a few compilations
         t = _padded(tri.astype(np.int32), size, -1)
         w = _padded(np.asarray(uv, np.float32), size, 0.0)
-        out = np.asarray(_lookup(t, w, self.tables(), self.height))[:k].astype(np.int64)
+        out = np.asarray(_lookup(t, w, self.tables()))[:k].astype(np.int64)
         return self._resolve(out, points, tri, uv)
 
     def front_hits(self, tri: Int[np.ndarray, " k"], uv: Float[np.ndarray, "k 2"],
@@ -311,8 +326,8 @@ class PatchLocator:
         t = _padded(np.asarray(tri, np.int32), size, -1)
         w = _padded(np.asarray(uv, np.float32), size, 0.0)
         d = _padded(np.asarray(dirs, np.float32), size, 0.0)
-        out = np.asarray(_front_hits(t, w, d, np.asarray(front, np.float32), self.tables(),
-                                     self.height))[:k]
+        front = _padded(np.asarray(front, np.float32), len(self.tables()["kind"]), 0.0)
+        out = np.asarray(_front_hits(t, w, d, front, self.tables()))[:k]
         return self._resolve(out.astype(np.int64), None, np.asarray(tri, np.int64), uv)
 
     def _resolve(self, out, points, tri, uv):
@@ -350,13 +365,15 @@ def _halves(fn, n: int):
     return threaded_map(fn, spans, threads=min(2, len(spans)))
 
 
-def _patch_of(tri, uv, tables, height: int):
+def _patch_of(tri, uv, tables):
     """The patch holding each hit (triangle ``tri``, −1 none; barycentric ``uv``, float32):
     −1 where none, −2 where only the nearest centroid can tell (:meth:`PatchLocator._resolve`).
 
-    Every hit takes every branch (one patch, the grid of n², ``height`` steps down the
-    bisection tree), fused in one XLA loop: 3× the NumPy version, whose compactions and
-    scattered writes cost more than the arithmetic."""
+    Every hit takes every branch (one patch, the grid of n², ``tables["height"]`` steps down
+    the bisection tree), fused in one XLA loop: 3× the NumPy version, whose compactions and
+    scattered writes cost more than the arithmetic. The height is a traced value, not a
+    static one, so that one compiled program serves every mesh whose tables fall in the same
+    size class (:meth:`PatchLocator.tables`)."""
     t = jnp.maximum(tri, 0)
     u, v = uv[:, 0], uv[:, 1]
     kind, first, n = tables["kind"][t], tables["first"][t], tables["n"][t]
@@ -375,26 +392,26 @@ def _patch_of(tri, uv, tables, height: int):
         child = jax.lax.bitcast_convert_type(row[:, 3:5], jnp.int32)
         return jnp.where(second, child[:, 1], child[:, 0])
 
-    node = jax.lax.fori_loop(0, height, step, tables["root"][t])
+    node = jax.lax.fori_loop(0, tables["height"], step, tables["root"][t])
     leaf = tables["leaf"][node - tables["n_internal"]]
     found = jnp.select([kind == 1, kind == 2, kind == 3], [first, grid, jnp.where(
         leaf >= 0, leaf, -2)], jnp.where(kind == 4, -2, -1))
     return jnp.where(tri >= 0, found, -1)
 
 
-@_executables.stored("patch_lookup", "radiosity/_sampled.py", static_argnums=3)
-def _lookup(tri, uv, tables, height: int):
+@_executables.stored("patch_lookup", "radiosity/_sampled.py")
+def _lookup(tri, uv, tables):
     # kept across processes: a small study's gather calls it once, where tracing and lowering
     # would be most of its cost
-    return _patch_of(tri, uv, tables, height)
+    return _patch_of(tri, uv, tables)
 
 
-@partial(jax.jit, static_argnums=5)
-def _front_hits(tri, uv, dirs, front, tables, height: int):
+@jax.jit
+def _front_hits(tri, uv, dirs, front, tables):
     """:func:`_patch_of` of the hits on a front face; −1 for a miss or a back face (a ray
     meeting a back face is blocked: surfaces are one-sided)."""
     facing = jnp.einsum("ij,ij->i", dirs, front[jnp.maximum(tri, 0)]) < 0
-    return jnp.where(facing, _patch_of(tri, uv, tables, height), -1)
+    return jnp.where(facing, _patch_of(tri, uv, tables), -1)
 
 
 def _rays(vertices, frames, local, shift, lift: float, centre, nudge: float, size: int = 0):

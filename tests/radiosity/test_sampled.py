@@ -143,6 +143,35 @@ def test_front_hits_find_the_patch_of_every_front_hit(sliver_share):
     assert 0 < (want[on_sliver] >= 0).sum() and (want >= 0).sum() > 0.7 * k
 
 
+
+def test_meshes_of_one_size_class_share_one_compiled_lookup():
+    # the locator's tables are padded to their size class and the tree's height is traced, so
+    # a second mesh of the same triangles (other patches, another bisection tree) runs the
+    # program the first one compiled — and still finds every patch from its own centroid
+    from lumijax.radiosity._sampled import _front_hits
+
+    tri = np.array([[[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+                    [[0, 0, 1], [6, 0, 1], [6, 0.4, 1]],
+                    [[5, 5, 5], [5.1, 5, 5], [5, 5.1, 5]]], float)
+    compiled, heights = [], []
+    for size in (0.6, 0.3):  # 57 and 219 patches, trees 5 and 7 cuts deep, one size class
+        p = mesh_patches(tri, patch_size=size)
+        loc = PatchLocator(p, tri)
+        src = np.asarray(p.source_triangle)
+        t = tri[src]
+        e = np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]], axis=2)
+        bary = np.linalg.solve(np.einsum("kij,kil->kjl", e, e),
+                               np.einsum("kij,ki->kj", e, p.centroid - t[:, 0])[..., None])[..., 0]
+        front = np.zeros((3, 3), np.float32)
+        front[src] = p.normal
+        got = loc.front_hits(src.astype(np.int32), bary.astype(np.float32),
+                             -front[src], front, at_least=4096)
+        assert np.array_equal(got, np.arange(p.n))
+        compiled.append(_front_hits._cache_size())
+        heights.append(loc.height)
+    assert heights[0] != heights[1]
+    assert compiled[1] == compiled[0]
+
 def _furnished_triangles():
     """A 4 × 3 × 2.8 m room with a desk and a partition: shadows, near pairs, open edges."""
     m = trimesh.creation.box(extents=(4.0, 3.0, 2.8))
