@@ -54,6 +54,10 @@ LINK_BYTES = 12
 #: Links per step of a product's scan: 2¹⁶ links × 144 columns × 4 bytes ≈ 38 MiB gathered.
 _STEP = 1 << 16
 
+#: Hits per call of the gather's patch lookup (:meth:`PatchLocator.__call__`): one compiled
+#: shape; a call takes ~1 ms, a shape more ~0.25 s to compile in a new study's first run.
+_LOOKUP_ROWS = 1 << 16
+
 _R2 = 1.32471795724474602596  # plastic number: the R2 low-discrepancy sequence's generator
 
 
@@ -308,10 +312,14 @@ class PatchLocator:
         k = len(tri)
         if uv is None:
             uv = self._uv(points, tri) if k else np.zeros((0, 2))
-        size = max(1024, 1 << max(k - 1, 0).bit_length())  # a few shapes, a few compilations
-        t = _padded(tri.astype(np.int32), size, -1)
-        w = _padded(np.asarray(uv, np.float32), size, 0.0)
-        out = np.asarray(_lookup(t, w, self.tables()))[:k].astype(np.int64)
+        # in calls of one size, whatever the query's: the compiled lookup then depends on the
+        # mesh's size class alone, and a new study's gather finds it stored
+        t, w = tri.astype(np.int32), np.asarray(uv, np.float32)
+        parts = [np.asarray(_lookup(_padded(t[a:a + _LOOKUP_ROWS], _LOOKUP_ROWS, -1),
+                                    _padded(w[a:a + _LOOKUP_ROWS], _LOOKUP_ROWS, 0.0),
+                                    self.tables()))[:min(_LOOKUP_ROWS, k - a)]
+                 for a in range(0, k, _LOOKUP_ROWS)]
+        out = np.concatenate(parts).astype(np.int64) if parts else np.zeros(0, np.int64)
         return self._resolve(out, points, tri, uv)
 
     def front_hits(self, tri: Int[np.ndarray, " k"], uv: Float[np.ndarray, "k 2"],
