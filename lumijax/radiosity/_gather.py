@@ -48,7 +48,7 @@ class GatherOperator:
         The product runs on shapes padded to powers of two, at least 4,096 patches, 2¹⁷
         links and 1,024 points (the padding links weigh 0 and land on a point past the last):
         every room-sized study calls one program, which the first compiled and stored
-        (~0.1 s of a new study's run otherwise); padding costs the product ~1 ms there."""
+        (~0.1 s of a new study's run otherwise)."""
         from ._solve import _concrete, _pad_rows
 
         def size_class(k: int, least: int) -> int:

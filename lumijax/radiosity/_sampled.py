@@ -262,8 +262,9 @@ class PatchLocator:
         Each is padded to its size class (:func:`~lumijax.radiosity._solve.patch_bucket`: at
         most an eighth more above 4,096 rows), the triangles' with "no patch" rows, the
         nodes' and leaves' with rows no root reaches: the compiled lookup depends on the
-        shapes only, so meshes of about the same size — the sizes of a sweep, a new study
-        of a room — share one program instead of compiling their own (~0.3 s each)."""
+        shapes only, so meshes of about the same size — a room remeshed a little finer, a
+        new room like the last — share one program instead of compiling their own (~0.2-0.3 s
+        each)."""
         from ._solve import patch_bucket
 
         t = self.__dict__.get("_tables")

@@ -75,3 +75,27 @@ def test_the_lookup_is_made_once_per_caster_and_mesh():
     assert _locator(b, caster) is not _locator(a, caster)
     # a caster of other triangles (fewer than the patches' sources): no exact lookup
     assert _locator(a, RayCaster(tri[:1])) is None
+
+
+def test_the_padded_product_is_the_sum_over_links_concrete_and_traced():
+    # the product runs on padded shapes (a weight-0 link to a point past the last): its answer
+    # must still be each point's sum of weight × B over its own links, with B concrete and
+    # inside a trace, for counts on and off the padded sizes
+    import jax
+    import jax.numpy as jnp
+
+    from lumijax.radiosity._gather import GatherOperator
+
+    rng = np.random.default_rng(3)
+    for n_points, n_patches, links in ((7, 50, 300), (1024, 4096, 1 << 17), (1500, 5000, 140_000)):
+        op = GatherOperator(n_points, n_patches, rng.integers(0, n_points, links).astype(np.int32),
+                            rng.integers(0, n_patches, links).astype(np.int32),
+                            rng.random(links))
+        b = rng.random((n_patches, 2, 3)).astype(np.float32)
+        want = np.zeros((n_points, 2, 3))
+        np.add.at(want, op.point, op.weight[:, None, None] * b[op.patch])
+        got = np.asarray(op(jnp.asarray(b)))
+        traced = np.asarray(jax.jit(lambda x, op=op: op(x))(jnp.asarray(b)))
+        assert got.shape == traced.shape == want.shape
+        np.testing.assert_allclose(got, want, rtol=2e-5, atol=1e-4)
+        np.testing.assert_allclose(traced, want, rtol=2e-5, atol=1e-4)

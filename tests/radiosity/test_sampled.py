@@ -143,7 +143,6 @@ def test_front_hits_find_the_patch_of_every_front_hit(sliver_share):
     assert 0 < (want[on_sliver] >= 0).sum() and (want >= 0).sum() > 0.7 * k
 
 
-
 def test_meshes_of_one_size_class_share_one_compiled_lookup():
     # the locator's tables are padded to their size class and the tree's height is traced, so
     # a second mesh of the same triangles (other patches, another bisection tree) runs the
@@ -171,6 +170,7 @@ def test_meshes_of_one_size_class_share_one_compiled_lookup():
         heights.append(loc.height)
     assert heights[0] != heights[1]
     assert compiled[1] == compiled[0]
+
 
 def _furnished_triangles():
     """A 4 × 3 × 2.8 m room with a desk and a partition: shadows, near pairs, open edges."""
