@@ -27,7 +27,7 @@ import warnings
 from pathlib import Path
 
 __all__ = ["ENV", "MIN_COMPILE_S", "cache_dir", "enable_compilation_cache", "to_device",
-           "host_cast", "VerifiedFileCache"]
+           "host_cast", "size_class", "VerifiedFileCache"]
 
 ENV = "LUMIJAX_JAX_CACHE"
 """Environment variable: a folder for the cache, or ``0``/``off``/``false``/``no``/empty."""
@@ -210,6 +210,14 @@ def enable_compilation_cache() -> Path | None:
             jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_S)
         _enabled = path
         return path
+
+
+def size_class(n: int, least: int = 1) -> int:
+    """The length an axis of ``n`` is padded to before a compiled call: the next power of two,
+    at least ``least``. A compiled program depends on its shapes, so calls whose counts fall in
+    one class share it (in the process and, through the cache, in the next) instead of each
+    compiling its own."""
+    return max(least, 1 << max(int(n) - 1, 0).bit_length())
 
 
 def to_device(x, dtype=None):

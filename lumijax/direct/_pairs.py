@@ -34,7 +34,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from .. import _executables
-from .._jit_cache import to_device
+from .._jit_cache import size_class, to_device
 from ..kernels import pair_light
 from ..photometry._distribution import angles_to_direction
 
@@ -482,10 +482,6 @@ def _owned_pairs(batch, owner, pts, nrm, axis, cos_support):
         r0 = r1
 
 
-def _pow2(n: int) -> int:
-    return 1 << max(int(n) - 1, 0).bit_length()
-
-
 def _bucket(n: int) -> int:
     """Padded call size: 65,536 pairs, or :data:`_PAIRS_PER_CALL` above that, so a run compiles
     at most two shapes. Measured on the demo (session 19; first calls, their executables loaded
@@ -512,7 +508,7 @@ def _rotation_table(rotations, dtype=None):
     selections of other sizes reuse the compiled kernel (numpy → device without an eager
     kernel: ``_jit_cache.to_device``; ``dtype`` None: JAX's canonical float)."""
     rot = np.asarray(rotations, np.float64).reshape(-1, 3, 3)
-    pad = np.broadcast_to(np.eye(3), (_pow2(len(rot)) - len(rot), 3, 3))
+    pad = np.broadcast_to(np.eye(3), (size_class(len(rot)) - len(rot), 3, 3))
     return to_device(np.concatenate([rot, pad]), dtype)
 
 

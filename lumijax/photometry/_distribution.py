@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._jit_cache import to_device
+from .._jit_cache import size_class, to_device
 
 __all__ = ["CandelaDistribution"]
 
@@ -256,11 +256,6 @@ def _intensity(photometric_type: str, h_deg, v_deg, candela, d, luts=None, h_ste
                      (h[0], h[-1]), (v[0], v[-1]), dtype)
 
 
-def _bucket(n: int, least: int) -> int:
-    """The padded length of an axis: the next power of two, at least ``least``."""
-    return max(least, 1 << max(int(n) - 1, 0).bit_length())
-
-
 def _pad_grid(g: np.ndarray, size: int) -> np.ndarray:
     """``g`` continued upwards by unit steps to ``size`` knots (never read: see KernelTable)."""
     return np.concatenate([g, g[-1] + np.arange(1, size - len(g) + 1, dtype=g.dtype)])
@@ -294,7 +289,7 @@ class KernelTable(eqx.Module):
            dtype) -> KernelTable:
         """From the stored angles and table (as float64); ``dtype`` is their dtype."""
         (hl, hs), (vl, vs) = _cell_lut(h), _cell_lut(v)
-        nh, nv = _bucket(len(h), 128), _bucket(len(v), 512)
+        nh, nv = size_class(len(h), 128), size_class(len(v), 512)
         cd_p = np.zeros((nh, nv))
         cd_p[:len(h), :len(v)] = cd
 

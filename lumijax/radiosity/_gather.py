@@ -26,6 +26,10 @@ from .._jit_cache import to_device
 
 __all__ = ["GatherOperator", "build_gather", "build_sensor_gather"]
 
+#: (patches, links, points) a gather's product is padded up to (:meth:`GatherOperator.__call__`):
+#: small.py's rooms fall within it (its cube: 1,728 patches, 123,455 links, 100 points).
+ROOM_SHAPE = (4096, 1 << 17, 1024)
+
 
 @dataclass(frozen=True)
 class GatherOperator:
@@ -45,30 +49,33 @@ class GatherOperator:
     def __call__(self, b: Float[Array, "patches ..."]) -> Float[Array, "points ..."]:
         """Illuminance (lx) at the points from patch radiosity ``b`` (any trailing axes).
 
-        The product runs on shapes padded to powers of two, at least 4,096 patches, 2¹⁷
-        links and 1,024 points (the padding links weigh 0 and land on a point past the last):
-        every room-sized study calls one program, which the first compiled and stored
-        (~0.1 s of a new study's run otherwise)."""
-        from ._solve import _concrete, _pad_rows
+        A room-sized product runs on shapes padded up to :data:`ROOM_SHAPE` (4,096 patches,
+        2¹⁷ links, 1,024 points; padding links weigh 0 and land on a point past the last), so
+        every such study calls the one program the first compiled and stored (~0.1 s of a new
+        study's run otherwise). An axis above its size runs as it is: padding there would
+        cost copies and work on every call (up to 2× the product, a host copy of ``b``) for
+        a compile a large study pays once."""
+        from ._solve import _pad_rows
 
-        def size_class(k: int, least: int) -> int:
-            return max(least, 1 << (k - 1).bit_length())
-
-        n, links = self.n_patches, len(self.patch)
-        rows, size = size_class(n, 4096), size_class(links, 1 << 17)
-        points = size_class(self.n_points + 1, 1024)
-        concrete = _concrete(b)
-        b = _pad_rows(concrete if concrete is not None else b, n, rows - n)
-        weight = np.zeros((size,) + (1,) * (b.ndim - 1), b.dtype)
-        weight[:links, ...] = np.asarray(self.weight, b.dtype).reshape((-1,) + weight.shape[1:])
-        patch = np.zeros(size, np.int32)
-        patch[:links] = self.patch
-        point = np.full(size, self.n_points, np.int32)
-        point[:links] = self.point
+        n, links, n_points = self.n_patches, len(self.patch), self.n_points
+        least_rows, least_links, least_points = ROOM_SHAPE
+        rows, size = max(n, least_rows), max(links, least_links)
+        points = max(n_points + (size > links), least_points)
+        traced = isinstance(b, jax.core.Tracer)
+        b = _pad_rows(b, n, rows - n) if rows > n else to_device(b)
+        weight = np.asarray(self.weight, b.dtype).reshape((-1,) + (1,) * (b.ndim - 1))
+        patch, point = self.patch, self.point
+        if size > links:
+            weight = np.concatenate([weight, np.zeros((size - links,) + weight.shape[1:],
+                                                      weight.dtype)])
+            patch = np.concatenate([patch, np.zeros(size - links, patch.dtype)])
+            point = np.concatenate([point, np.full(size - links, n_points, point.dtype)])
         out = _apply(b, patch, weight, point, points)
-        if concrete is None:  # traced: the slice joins the caller's program
-            return out[:self.n_points]
-        return to_device(np.asarray(out)[:self.n_points])  # an eager slice would compile one
+        if points == n_points:
+            return out
+        if traced:  # the slice joins the caller's program
+            return out[:n_points]
+        return to_device(np.asarray(out)[:n_points])  # an eager slice would compile one
 
     @property
     def coverage(self) -> Float[np.ndarray, " points"]:

@@ -40,6 +40,7 @@ import numpy as np
 from jaxtyping import Float, Int
 
 from .. import _executables
+from .._jit_cache import size_class
 from ..errors import GeometryError
 from ._gather import _cosine_directions, _frames, merged_links
 from ._operator import Info, SampledBucket, TransportOperator
@@ -331,11 +332,13 @@ class PatchLocator:
         or the back of one (``front``: each triangle's front normal). The query is padded to
         a power of two of at least ``at_least`` rays (one compiled shape for every batch)."""
         k = len(tri)
-        size = max(1024, 1 << max(k - 1, at_least - 1, 0).bit_length())
+        size = size_class(max(k, at_least), 1024)
         t = _padded(np.asarray(tri, np.int32), size, -1)
         w = _padded(np.asarray(uv, np.float32), size, 0.0)
         d = _padded(np.asarray(dirs, np.float32), size, 0.0)
-        front = _padded(np.asarray(front, np.float32), len(self.tables()["kind"]), 0.0)
+        front = np.asarray(front, np.float32)
+        if len(front) < len(self.tables()["kind"]):  # build_sampled makes it this long
+            front = _padded(front, len(self.tables()["kind"]), 0.0)
         out = np.asarray(_front_hits(t, w, d, front, self.tables()))[:k]
         return self._resolve(out.astype(np.int64), None, np.asarray(tri, np.int64), uv)
 
@@ -562,9 +565,10 @@ def build_sampled(
     triangles = np.asarray(triangles, np.float64)
     caster = RayCaster(triangles) if caster is None else caster
     t0 = time.perf_counter()
-    front = np.zeros((max(caster.n_triangles, 1), 3), np.float32)  # as the rays' directions
-    front[np.asarray(patches.source_triangle)] = patches.normal
     locator = PatchLocator(patches, triangles)
+    # as the rays' directions, and as long as the lookup's padded tables: no copy a batch
+    front = np.zeros((max(caster.n_triangles, len(locator.tables()["kind"])), 3), np.float32)
+    front[np.asarray(patches.source_triangle)] = patches.normal
     spans = [(a, min(a + s.batch, patches.n)) for a in range(0, patches.n, s.batch)]
 
     def one(a, b):

@@ -27,10 +27,12 @@ def intensity_np(dist, d) -> np.ndarray:
     computed with, so a data sheet draws what the study lit with (no second interpolant)."""
     import jax.numpy as jnp
 
+    from .._jit_cache import size_class
+
     d = np.asarray(d, np.float64)
     flat = d.reshape(-1, 3)
     n = len(flat)
-    rows = max(MIN_BATCH, 1 << max(n - 1, 0).bit_length())
+    rows = size_class(n, MIN_BATCH)
     padded = np.zeros((rows, 3)) if n < rows else flat
     if n < rows:
         padded[:n] = flat
