@@ -193,6 +193,19 @@ class DaskExecutor(Executor):
     ``map``, then raises :class:`ClusterError`. Errors a task raises
     itself (a ``LumijaxError`` about the input) pass through unchanged.
 
+    A task that never finishes while no worker works on it (seen once: the driver waited
+    minutes on a task with both workers idle) is found by a watchdog, not waited on for ever.
+    While the driver waits on a task, every ``poll_s`` seconds it asks the scheduler (one
+    query, :func:`_scheduler_probe`) for the task's state and whether the worker running it
+    reports, in its heartbeat, a task executing or data arriving. The task is *stalled* when
+    it is not ``processing`` on a worker that is working (nor ``waiting`` / ``queued`` while
+    some worker works: its turn will come) at two or more polls in a row spanning at least
+    ``stall_s`` seconds: the scheduler has forgotten it, or finished it without telling us,
+    or its worker sits idle with it. A stalled task is sent again like a cancelled one (one
+    round of ``max_resubmits``, with every task of the ``map`` not yet finished), and past
+    the limit :class:`ClusterError` names the task and how long it waited. A long task is
+    never resent: while its worker executes, each poll sees progress, whatever its length.
+
     Parameters
     ----------
     client
@@ -202,6 +215,21 @@ class DaskExecutor(Executor):
     tasks_per_worker
         Batches a stage is cut into per worker: more balances uneven tasks and loses less
         work to a dead worker; fewer costs less per-task overhead (≈ 1–3 ms each).
+
+    Attributes
+    ----------
+    max_resubmits
+        Rounds of resending one ``map`` may make (cancelled or stalled tasks), 3.
+    poll_s
+        Seconds the driver waits on a task before asking the scheduler about it, 10: one
+        small query per 10 s of waiting costs the scheduler nothing next to tasks of seconds
+        to minutes, and a stall is found within ``stall_s + poll_s``.
+    stall_s
+        Seconds a task must show no progress, over two polls or more, before it is resent,
+        60: far past the moments a live task can look idle — a worker's heartbeat (what the
+        scheduler knows of its work) is at most a few seconds old, and a nanny restarts a
+        killed worker (imports, JAX) in tens of seconds — yet minutes before anyone would
+        take the wait for a hang.
     """
 
     def __init__(self, client, *, owned: bool = False, tasks_per_worker: int = 4) -> None:
@@ -213,8 +241,14 @@ class DaskExecutor(Executor):
         self.submitted: collections.Counter[str] = collections.Counter()
         self._shared: dict[int, tuple[Any, Any]] = {}  # id → (object kept alive, its future)
         self._x64: bool | None = None  # the precision the workers were last set to
-        #: rounds of resending one ``map`` may make after the cluster cancelled its tasks
+        #: rounds of resending one ``map`` may make after the cluster cancelled or stalled its
+        #: tasks
         self.max_resubmits = 3
+        self.poll_s = 10.0
+        self.stall_s = 60.0
+        #: tasks sent again (cancelled or stalled), by function name
+        self.resent: collections.Counter[str] = collections.Counter()
+        self._probe_off = False  # the watchdog's probe failed at the scheduler: wait, as before
 
     @property
     def address(self) -> str:
@@ -264,40 +298,60 @@ class DaskExecutor(Executor):
         except (OSError, TimeoutError) as e:
             raise self._lost(e) from None
         self.submitted[fn.__name__] += len(futures)
-        return self._results(futures, items, submit)
+        return self._results(futures, items, submit, fn.__name__)
 
-    def _results(self, futures, items, submit) -> Iterator[Any]:
+    def _results(self, futures, items, submit, name: str) -> Iterator[Any]:
         from concurrent.futures import CancelledError
 
         from distributed import KilledWorker
 
         resubmitted = 0
+
+        def resend(k: int, e: BaseException) -> None:
+            # a worker died holding the only copy of a scattered input (the scheduler's memory
+            # manager keeps one replica of a broadcast value once no task waits on it), so
+            # every task needing it was cancelled, not only this one; or the cluster stalled,
+            # and what it forgot of task k it may have forgotten of the others: all that have
+            # not finished are sent again at once, with the inputs scattered afresh, as one
+            # round
+            nonlocal resubmitted
+            if resubmitted >= self.max_resubmits:
+                raise self._lost(e) from None
+            resubmitted += 1
+            self._shared.clear()
+            again = [k] + [j for j in range(k + 1, len(futures))
+                           if futures[j].status != "finished"]
+            for j in again:
+                futures[j].cancel()
+            try:
+                for j, f in zip(again, submit([items[j] for j in again])):
+                    futures[j] = f
+            except (OSError, TimeoutError) as e2:
+                raise self._lost(e2) from None
+            self.resent[name] += len(again)
+
         try:
             for k in range(len(futures)):
+                watch = _Watch(name)
                 while True:
+                    future = futures[k]
+                    # a finished task's result is fetched without a limit: a large one may take
+                    # longer than a poll to arrive, and cutting it off would fetch it for ever
+                    timeout = None if future.status == "finished" else self.poll_s
                     try:
-                        out = futures[k].result()
+                        out = future.result(timeout=timeout)
                         break
                     except CancelledError as e:
-                        # a worker died holding the only copy of a scattered input (the
-                        # scheduler's memory manager keeps one replica of a broadcast value
-                        # once no task waits on it), so every task needing it was cancelled,
-                        # not only this one: all that have not finished are sent again at once,
-                        # with the inputs scattered afresh, as one round
-                        if resubmitted >= self.max_resubmits:
+                        resend(k, e)
+                        watch = _Watch(name, watch.sends + 1)
+                    except TimeoutError as e:
+                        if timeout is None:
                             raise self._lost(e) from None
-                        resubmitted += 1
-                        self._shared.clear()
-                        again = [k] + [j for j in range(k + 1, len(futures))
-                                       if futures[j].status != "finished"]
-                        for j in again[1:]:
-                            futures[j].cancel()
-                        try:
-                            for j, f in zip(again, submit([items[j] for j in again])):
-                                futures[j] = f
-                        except (OSError, TimeoutError) as e2:
-                            raise self._lost(e2) from None
-                    except (KilledWorker, OSError, TimeoutError) as e:
+                        stalled = self._watch(future, watch)
+                        if stalled is not None:
+                            resend(k, stalled)
+                            watch = _Watch(name, watch.sends + 1)
+                    except (KilledWorker, OSError) as e:
                         raise self._lost(e) from None
                 futures[k].release()
                 futures[k] = None  # the worker may forget a result once it is here
@@ -307,7 +361,57 @@ class DaskExecutor(Executor):
                 if f is not None:
                     f.cancel()
 
+    def _watch(self, future, watch: _Watch) -> _Stalled | None:
+        """After a poll's wait: the stall of ``future`` once it has shown no progress at two
+        polls or more spanning ``stall_s`` seconds, else None."""
+        import time
+
+        now = time.monotonic()
+        why = self._no_progress(future.key)
+        if why is None:
+            watch.quiet_since, watch.quiet_polls = None, 0
+            return None
+        if watch.quiet_since is None:
+            watch.quiet_since = now
+        watch.quiet_polls += 1
+        if watch.quiet_polls < 2 or now - watch.quiet_since < self.stall_s:
+            return None
+        return _Stalled(
+            f"stalled on task {watch.name} (key {future.key!r}, sent {watch.sends} time"
+            f"{'s' if watch.sends > 1 else ''}): waited {now - watch.start:.0f} s for it, and "
+            f"no worker was running it for the last {now - watch.quiet_since:.0f} s ({why}; "
+            "expected it processing on a working worker, or waiting for one while others work)")
+
+    def _no_progress(self, key) -> str | None:
+        """Why the scheduler shows task ``key`` making no progress now, or None if it does (or
+        the scheduler will not say: the watchdog never resends on ignorance)."""
+        if self._probe_off:
+            return None
+        try:
+            # the limit keeps a scheduler that no longer answers from hanging the watchdog
+            # (callback_timeout is Client.sync's: run_on_scheduler passes it on)
+            facts = self.client.run_on_scheduler(_scheduler_probe(), key,
+                                                 callback_timeout=self.poll_s)
+        except (OSError, TimeoutError) as e:
+            return f"the scheduler did not answer within {self.poll_s:g} s: {type(e).__name__}"
+        except Exception as e:  # noqa: BLE001 - the probe failed there: a scheduler it cannot read
+            import warnings
+
+            from ..errors import LumijaxWarning
+
+            self._probe_off = True
+            warnings.warn(f"the scheduler at {self.address} would not report on a task's "
+                          f"progress ({type(e).__name__}: {e}); a task it stalls will be "
+                          "waited on, not resent", LumijaxWarning, stacklevel=2)
+            return None
+        return _why_idle(facts)
+
     def _lost(self, e: BaseException) -> ClusterError:
+        if isinstance(e, _Stalled):
+            return ClusterError(
+                f"the Dask cluster at {self.address} {e}; no partial result was kept. Check "
+                "the scheduler's and workers' logs, or run without --scheduler",
+                key="scheduler")
         return ClusterError(
             f"the Dask cluster at {self.address} lost a task ({type(e).__name__}: {e}); "
             "no partial result was kept. Check the workers' memory and logs, or run without "
@@ -318,6 +422,81 @@ class DaskExecutor(Executor):
         self._shared.clear()
         if self.owned:
             self.client.close()
+
+
+class _Stalled(Exception):
+    """A task the watchdog found making no progress (becomes a ClusterError past the limit)."""
+
+
+class _Watch:
+    """The wait on one sending of one task: since when, and since when without progress."""
+
+    def __init__(self, name: str, sends: int = 1) -> None:
+        import time
+
+        self.name, self.sends = name, sends
+        self.start = time.monotonic()
+        self.quiet_since: float | None = None
+        self.quiet_polls = 0
+
+
+#: scheduler states of a task that will move without help: running on a worker, or waiting
+#: for its inputs or for a thread (queued)
+_LIVE_STATES = ("processing", "waiting", "queued")
+
+
+def _why_idle(facts: Mapping[str, Any]) -> str | None:
+    """Why the facts of :func:`_scheduler_probe` show no progress, or None if they do."""
+    state = facts.get("state")
+    if state in _LIVE_STATES and facts.get("working"):
+        return None
+    if state is None:
+        return "the scheduler does not know its key"
+    if state == "processing":
+        return f"processing on {facts.get('worker')}, which runs nothing"
+    if state in _LIVE_STATES:
+        return f"{state!r} while none of {facts.get('workers', 0)} workers runs anything"
+    return f"{state!r} at the scheduler, yet its result never came"
+
+
+def _scheduler_probe() -> Callable[..., dict[str, Any]]:
+    """The function ``run_on_scheduler`` runs for the watchdog: the task's state, and whether
+    the worker processing it (or, for a task not yet placed, any worker) reports in its last
+    heartbeat a task executing or data arriving.
+
+    One round trip, a dictionary look-up at the scheduler. ``Client.processing`` or
+    ``who_has`` cannot say whether the worker holding a task does anything (a worker that
+    lost the task still shows it processing), and ``scheduler_info`` ships every worker's
+    metrics. Made inside a function so that cloudpickle sends it by value: the scheduler needs
+    no lumijax. A version of ``distributed`` without the heartbeat counts it reads makes it
+    report "working" (wait), and one without the attributes it needs makes it fail (the
+    watchdog stands down, with a warning): never a false stall.
+    """
+    def probe(key, dask_scheduler=None) -> dict[str, Any]:
+        # a thread running a task (a cancelled one holds its thread until it returns), or a
+        # task's input on its way from another worker
+        busy = ("executing", "long-running", "cancelled", "resumed", "flight")
+
+        def working(ws) -> bool:
+            metrics = getattr(ws, "metrics", None)
+            if metrics is None:  # a version without heartbeat metrics: cannot tell, so wait
+                return True
+            if not metrics:  # no heartbeat yet (a worker just started): idle for now
+                return False
+            counts = metrics.get("task_counts")
+            if counts is None:  # a version without the worker's task counts: cannot tell
+                return True
+            return any(counts.get(s, 0) for s in busy)
+
+        ts = dask_scheduler.tasks.get(key)
+        state = None if ts is None else str(ts.state)
+        ws = getattr(ts, "processing_on", None) if state == "processing" else None
+        workers = list(dask_scheduler.workers.values())
+        return {"state": state, "worker": getattr(ws, "address", None),
+                "working": working(ws) if ws is not None else any(map(working, workers)),
+                "workers": len(workers)}
+
+    return probe
 
 
 def _precision_plugin(x64: bool):

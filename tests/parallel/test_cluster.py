@@ -201,3 +201,32 @@ def test_the_sampled_transport_built_on_the_cluster_is_the_local_build(client):
     for name in ("weight", "recv", "src"):  # the local build on two threads is the plain loop's
         np.testing.assert_array_equal(np.asarray(getattr(a, name)),
                                       np.asarray(getattr(one_thread, name)))
+
+
+def test_a_long_task_on_a_live_worker_is_waited_for_not_resent(client, tmp_path):
+    """A task three times ``stall_s`` long: the watchdog asks the real scheduler at every poll,
+    sees the task processing on a worker that executes it, and never resends it (each item
+    runs once: its line in the log)."""
+    runs = tmp_path / "runs"
+
+    def slow(item, *, log):  # nested: pickled by value, the workers need not import the tests
+        import time
+
+        with open(log, "a") as f:
+            f.write(f"{item}\n")
+        time.sleep(3.0)
+        return 10 * item
+
+    ex = connect(client)
+    ex.poll_s, ex.stall_s = 0.2, 1.0
+    seen: list = []
+    probe = ex._no_progress
+    ex._no_progress = lambda key: seen.append(probe(key)) or seen[-1]  # type: ignore[method-assign]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", lumijax.LumijaxWarning)  # the probe must not be refused
+        out = list(ex.map(slow, [0, 1], shared={"log": str(runs)}))
+    assert out == [0, 10]
+    assert sorted(runs.read_text().split()) == ["0", "1"] and ex.resent == {}
+    # the watchdog did ask (≈ 15 polls in 3 s) and mostly heard "progress": a poll may still
+    # read the worker's heartbeat from before the task began (one every 0.5 s)
+    assert len(seen) >= 5 and seen.count(None) >= len(seen) // 2, seen
