@@ -49,23 +49,22 @@ _T = TypeVar("_T")
 
 
 def _corrected_matmul(transport, b) -> np.ndarray:
-    """``F' b`` with the solve's row correction (:meth:`LightingSolution.patch_illuminance`):
-    one compiled program where its eager ops compiled a dozen in every process. A small
-    operator is applied as the solve applies it, one dense block over the padded patches
-    (``radiosity._solve``, "Small solves"): a program keyed on the padded size only. Else the
-    operator's build statistics (a static field) are dropped first: they differ by run and
-    would key a new program each time."""
-    from ..radiosity._operator import Info, densified
-    from ..radiosity._solve import patch_bucket
+    """``F' b`` with the solve's row correction (:meth:`LightingSolution.patch_illuminance`).
+    A small operator (one dense block, ``radiosity._operator.dense_matrix``) is applied on
+    the host, a BLAS product with nothing to compile (the direct solve holds that matrix
+    already); a larger one by one compiled program (its eager ops compiled a dozen in every
+    process), with the operator's build statistics (a static field) dropped first: they
+    differ by run and would key a new program each time."""
+    from ..radiosity._operator import Info, dense_matrix
+    from ..radiosity._solve import patch_bucket, row_correction
 
-    n = transport.n_patches
-    dense = densified(transport, patch_bucket(n))
-    if dense is None:
+    g = dense_matrix(transport, patch_bucket(transport.n_patches))
+    if g is None:
         return np.asarray(_corrected_matmul_kernel(dataclasses.replace(transport, info=Info()), b))
-    host = np.asarray(b)
-    padded = np.zeros((dense.n_patches,) + host.shape[1:], host.dtype)
-    padded[:n] = host  # padding patches: no form factors, row sum 0, left uncorrected
-    return np.asarray(_corrected_matmul_kernel(dense, to_device(padded)))[:n]
+    host = np.asarray(b)  # its callers' radiosities: concrete already
+    area = np.asarray(transport.area, np.float64)
+    c, _ = row_correction(g.sum(axis=1, dtype=np.float64) / area)
+    return ((g @ (host * c[:, None].astype(host.dtype))) / area[:, None]).astype(host.dtype)
 
 
 def _small(transport, b) -> dict | None:

@@ -227,6 +227,7 @@ class Radiosity:
         return dict(iterations=int(res.iterations), residual=float(res.residual),
                     escaped_fraction=float(np.max(escaped)) if escaped.size else 0.0,
                     columns_solved=int(res.stats["columns_solved"]),
+                    solved_directly=bool(res.stats.get("direct", False)),
                     created_fraction=float(np.max(created)) if created.size else 0.0)
 
 

@@ -35,6 +35,7 @@ __all__ = [
     "TransportOperator",
     "ReflectionOperator",
     "densified",
+    "dense_matrix",
     "DENSE_PATCHES",
 ]
 
@@ -381,8 +382,7 @@ def densified(op: TransportOperator, n_patches: int | None = None) -> TransportO
     optimisation passes. Sums run in another order: the answer moves by rounding only.
     """
     n = op.n_patches if n_patches is None else int(n_patches)
-    if (n > DENSE_PATCHES or n < op.n_patches or any(not bk.symmetric for bk in op.buckets)
-            or _tracing()):
+    if not _densifies(op, n):
         return None
     kept = _DENSIFIED.get((id(op), n))
     if kept is not None and kept[0]() is op:  # the solve's, asked again by the patch product
@@ -391,6 +391,28 @@ def densified(op: TransportOperator, n_patches: int | None = None) -> TransportO
     _DENSIFIED[(id(op), n)] = (weakref.ref(op), one)
     weakref.finalize(op, _DENSIFIED.pop, (id(op), n), None)  # kept as long as op lives
     return one
+
+
+def dense_matrix(op: TransportOperator, n_patches: int | None = None) -> np.ndarray | None:
+    """``G = diag(A) F`` (m²) of ``op``'s patches as one ``(P, P)`` host array in the blocks'
+    dtype, or None where :func:`densified` would refuse. ``n_patches`` is the padded count a
+    later :func:`densified` of the same operator would ask for: both then share one host
+    array (the solve's direct path, ``radiosity._lu``, and the patch product read it
+    here; a fallback to the compiled solve makes its block from it). Kept while ``op``
+    lives; read-only."""
+    n = op.n_patches if n_patches is None else int(n_patches)
+    if not _densifies(op, n):
+        return None
+    p = op.n_patches
+    made = _DENSIFIED.get((id(op), n))
+    if made is not None and made[0]() is op:  # its block, a view of it (a copy off the CPU)
+        return np.asarray(made[1].buckets[0].blocks)[0, :p, :p]
+    return _host_g(op, n)[:p, :p]
+
+
+def _densifies(op: TransportOperator, n: int) -> bool:
+    return not (n > DENSE_PATCHES or n < op.n_patches
+                or any(not bk.symmetric for bk in op.buckets) or _tracing())
 
 
 def _tracing() -> bool:
@@ -403,8 +425,24 @@ def _tracing() -> bool:
 #: ``(id(op), n)`` → (a weak reference to op, its :func:`densified`).
 _DENSIFIED: dict[tuple[int, int], tuple[weakref.ref, TransportOperator]] = {}
 
+#: ``(id(op), n)`` → (a weak reference to op, its ``G`` over ``n + 1`` patches, on the host).
+_HOST_G: dict[tuple[int, int], tuple[weakref.ref, np.ndarray]] = {}
 
-def _densified(op: TransportOperator, n: int) -> TransportOperator:
+
+def _host_g(op: TransportOperator, n: int) -> np.ndarray:
+    """``G`` over ``n + 1`` patches on the host (the last row and column: the padding patch
+    the buckets point at), built once per operator and size for :func:`dense_matrix`."""
+    kept = _HOST_G.get((id(op), n))
+    if kept is not None and kept[0]() is op:
+        return kept[1]
+    g = _dense_g(op, n)
+    g.flags.writeable = False
+    _HOST_G[(id(op), n)] = (weakref.ref(op), g)
+    weakref.finalize(op, _HOST_G.pop, (id(op), n), None)
+    return g
+
+
+def _dense_g(op: TransportOperator, n: int) -> np.ndarray:
     dtype = op.buckets[0].dtype if op.buckets else np.dtype(np.float32)
     g = np.zeros((n + 1, n + 1), dtype)  # the last row and column: the padding patch P
     for bk in op.buckets:
@@ -432,6 +470,12 @@ def _densified(op: TransportOperator, n: int) -> TransportOperator:
             g[r[sl, :, None], s[sl, None, :]] += d
             if not bk.diagonal:
                 g[s[sl, :, None], r[sl, None, :]] += np.swapaxes(d, 1, 2)
+    return g
+
+
+def _densified(op: TransportOperator, n: int) -> TransportOperator:
+    kept = _HOST_G.get((id(op), n))  # the direct solve's, where it fell back to this one
+    g = kept[1] if kept is not None and kept[0]() is op else _dense_g(op, n)
     ar = np.arange(n, dtype=np.int32)[None]
     spans = np.full(1, -1, np.int32)  # numpy, then a transfer: an eager jnp op compiles
     one = DenseBucket(*(jnp.asarray(x) for x in (g[None, :n, :n], ar, ar, spans, spans)),

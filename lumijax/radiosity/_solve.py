@@ -66,6 +66,11 @@ empty, compiled in 0.45–0.49 s against 1.0–1.1 s (three runs each). The answ
 rounding (largest difference 3·10⁻¹⁶ of the largest value in float64, 3·10⁻⁷ in float32, on
 cube rooms).
 
+**Direct solve.** Outside a trace, the default solver answers a small room (one dense block,
+at most ``_lu.DIRECT_WORK`` of distinct reflectance columns × patches³) by one LU on the host
+(``_lu.py``): no program compiled, the same residual, escaped and created light; where the
+residual misses the tolerance, the iterative solve below runs as before.
+
 **Lazy fallback.** The default solver (``Refined``: iterative refinement around BiCGStab, GMRES
 taking over after two failed inner solves) is one program with both Krylov methods in it, and
 GMRES is rarely needed. Outside a trace the solve therefore first runs the refinement without
@@ -116,7 +121,7 @@ from .._jit_cache import to_device
 from ..errors import SolveError
 from . import _progress
 from ._krylov import column_max
-from ._operator import Info, ReflectionOperator, TransportOperator, densified
+from ._operator import Info, ReflectionOperator, TransportOperator, dense_matrix, densified
 from ._solvers import (
     DEFAULT_RADIOSITY_SOLVER,
     RADIOSITY_SOLVERS,
@@ -207,17 +212,23 @@ def check_reflectance(transport: TransportOperator, rho) -> None:
         )
 
 
-def row_correction(rows: Float[Array, " patches"]) -> tuple[Array, Array]:
+def row_correction(
+    rows: Float[Array, " patches"] | Float[np.ndarray, " patches"],
+) -> tuple[Array | np.ndarray, Array | np.ndarray]:
     """``(c, closed)``: the per-patch factor ``c`` that rescales each patch's outgoing light
     (``F_ij → F_ij c_j``, module docstring) and whether the scene is a closed enclosure.
 
-    ``rows`` are the form-factor row sums ``Σ_j F_ij`` (dimensionless).
+    ``rows`` are the form-factor row sums ``Σ_j F_ij`` (dimensionless); a NumPy array gives
+    NumPy arrays (the direct solve, ``_lu``).
     """
-    rows = jax.lax.stop_gradient(rows)
+    xp = np if isinstance(rows, np.ndarray) else jnp
+    if xp is jnp:
+        rows = jax.lax.stop_gradient(rows)
     seeing = rows > BLIND_ROW
-    closed = jnp.all(jnp.where(seeing, jnp.abs(rows - 1.0) <= CLOSED_TOL, True)) & jnp.any(seeing)
-    target = jnp.where(closed, 1.0, jnp.minimum(rows, 1.0))
-    c = jnp.where(seeing, target / jnp.where(seeing, rows, 1.0), 1.0)
+    closed = xp.asarray(
+        xp.all(xp.where(seeing, xp.abs(rows - 1.0) <= CLOSED_TOL, True)) & xp.any(seeing))
+    target = xp.where(closed, 1.0, xp.minimum(rows, 1.0))
+    c = xp.where(seeing, target / xp.where(seeing, rows, 1.0), 1.0)
     return c, closed
 
 
@@ -226,19 +237,23 @@ def escaped_fraction(transport: TransportOperator, b: Float[Array, "patches ..."
     after the row correction of :func:`row_correction` (so never negative)."""
     rows = transport.row_sums()
     c, _ = row_correction(rows)
-    return _flux_fractions(transport, b, rows * c)[0]
+    return _flux_fractions(transport.area, b, rows * c)[0]
 
 
-def _flux_fractions(transport, b, rows_used):
-    """``(escaped, created)`` per column for the row sums the solve used."""
-    b = jax.lax.stop_gradient(b)
+def _flux_fractions(area, b, rows_used):
+    """``(escaped, flux, total)``: per column the fraction of the flux ``A|B|`` leaving the
+    scene for the row sums the solve used, each patch's flux and the column's total (NumPy
+    arrays in, NumPy out: the direct solve, ``_lu``)."""
+    xp = np if isinstance(b, np.ndarray) else jnp
+    if xp is jnp:
+        b = jax.lax.stop_gradient(b)
     shape = (-1,) + (1,) * (b.ndim - 1)
-    area = transport.area.astype(b.dtype).reshape(shape)
+    area = area.astype(b.dtype).reshape(shape)
     rows_used = rows_used.astype(b.dtype).reshape(shape)
-    flux = area * jnp.abs(b)
-    total = jnp.sum(flux, axis=0)
-    total = jnp.where(total != 0, total, 1.0)
-    escaped = jnp.sum(flux * jnp.clip(1.0 - rows_used, 0.0, None), axis=0) / total
+    flux = area * xp.abs(b)
+    total = xp.sum(flux, axis=0)
+    total = xp.where(total != 0, total, 1.0)
+    escaped = xp.sum(flux * xp.clip(1.0 - rows_used, 0.0, None), axis=0) / total
     return escaped, flux, total
 
 
@@ -350,19 +365,51 @@ def solve_radiosity(
             lambda done, total: progress(count * done // total, count))
         if told is not None and patch_bucket(n) * min(batch, len(first)) >= REPORTED_SOLVE:
             args = (solver.reporting(), *args[1:])  # progress from within each batch
-        b_u, iterations, residual, result, escaped_u, stats = _batched_solve(
-            transport, rho_u, b0_h.reshape(n, -1)[:, first], tau_u, partner, args, batch,
-            told, np)
+        b0_u = b0_h.reshape(n, -1)[:, first]
+        solved = (_direct(transport, rho_u, b0_u, tau_u, partner, float(rtol), bool(correct_rows))
+                  if solver.solves_directly() else None)
+        if solved is None:
+            solved = _batched_solve(transport, rho_u, b0_u, tau_u, partner, args, batch, told,
+                                    np)
+        elif told is not None:
+            told(1, 1)
+        b_u, iterations, residual, result, escaped_u, stats = solved
         spread = not np.array_equal(inverse, np.arange(len(first)))  # spare a copy if all differ
         b = to_device((b_u[:, inverse] if spread else b_u).reshape(b0.shape))
         del b_u
         escaped = to_device(np.asarray(escaped_u)[inverse].reshape(b0.shape[1:]))
         created = np.asarray(stats["created"])[inverse].reshape(b0.shape[1:])
         stats = dict(stats, created=to_device(created), columns_solved=len(first))
-    sol = RadiositySolution(b, iterations, residual, result, escaped, stats)
+    sol = RadiositySolution(b, iterations, residual, result, escaped,
+                            {"direct": False, **stats})
     if throw:
         sol = _raise_if_failed(sol, solver, rtol, max_steps)
     return sol
+
+
+def _direct(transport, rho, b0, tau, partner, rtol: float, correct_rows: bool):
+    """:func:`_batched_solve`'s answer by an LU on the host (``_lu``), or None where that is
+    not for this solve (not one dense block, more work than ``DIRECT_WORK``) or did not meet
+    ``rtol`` (the iterative solve then runs as it would have)."""
+    from ._lu import DIRECT_WORK, direct_groups, direct_solve
+
+    n = transport.n_patches
+    groups = len(direct_groups(rho, tau)[0])
+    if groups * float(n) ** 3 > DIRECT_WORK:
+        return None
+    g = dense_matrix(transport, patch_bucket(n))
+    if g is None:
+        return None
+    area = np.asarray(transport.area)
+    b, residual, escaped, created, row_max, closed = direct_solve(
+        g, area, rho, b0, tau, None if partner is None else np.asarray(partner), correct_rows)
+    if not residual <= rtol:  # NaN included
+        return None
+    dtype = b0.dtype
+    stats = {"created": to_device(created), "row_max": to_device(np.asarray(row_max, dtype)),
+             "closed": to_device(np.asarray(closed)), "direct": True}
+    return (b, to_device(np.asarray(0, np.int32)), to_device(np.asarray(residual, dtype)),
+            lx.RESULTS.successful, to_device(escaped), stats)
 
 
 def _column_batch(column_batch, transport, count: int, dtype) -> int:
@@ -443,8 +490,9 @@ def _merge(parts):
     result = results[0]
     for r in results[1:]:  # the first failure is the solve's
         result = lx.RESULTS.where(result == lx.RESULTS.successful, r, result)
+    # a batch solved directly carries fewer counts than an iterated one (``_direct``)
     merged = {key: (cat if key == "created" else worst)([s[key] for s in stats])
-              for key in stats[0]}
+              for key in stats[0] if all(key in s for s in stats)}
     return worst(its), worst(res), result, cat(esc), merged
 
 
@@ -640,7 +688,7 @@ def _solve_body(transport, rho, b0, solver, rtol, max_steps, correct_rows, tau=N
     result = lx.RESULTS.where(residual <= rtol, lx.RESULTS.successful, result)
     b = y / c
     used = rows.astype(b0.dtype).reshape(shape) * c
-    escaped, flux, total = _flux_fractions(transport, b, used)
+    escaped, flux, total = _flux_fractions(transport.area, b, used)
     excess = jnp.clip(rows.astype(b0.dtype).reshape(shape) - 1.0, 0.0, None)
     stats = dict(stats, created=jnp.sum(flux * excess, axis=0) / total,
                  row_max=jnp.max(rows), closed=closed)

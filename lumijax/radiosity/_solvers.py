@@ -68,6 +68,12 @@ class AbstractRadiositySolver(eqx.Module):
         """Whether :meth:`run` reports its steps (a program with host callbacks)."""
         return False
 
+    def solves_directly(self) -> bool:
+        """Whether a small solve outside any trace may be answered by an LU factorisation on
+        the host instead (``radiosity._lu``): only a solver that promises the tolerance, not a
+        method, says yes (the default's :attr:`Refined.direct`)."""
+        return False
+
 
 class _Stepwise(eqx.Module):
     """A solver whose own loop tells ``_progress`` each step when ``progress`` is set
@@ -137,11 +143,19 @@ class GMRES(AbstractKrylovSolver):
 class Refined(AbstractKrylovSolver):
     """The default: iterative refinement on the true residual (float64 when JAX has 64-bit
     enabled) around ``inner``, falling back to ``fallback`` after ``restarts`` inner solves
-    that did not halve it (:class:`Refinement`). Succeeds only on the true residual."""
+    that did not halve it (:class:`Refinement`). Succeeds only on the true residual.
+
+    With ``direct`` (the default) a small room's solve outside any trace is an LU
+    factorisation on the host instead, judged on the same residual (``radiosity._lu``: no
+    program to compile); ``direct=False`` always iterates."""
 
     inner: AbstractKrylovSolver = BiCGStab()
     fallback: AbstractKrylovSolver | None = GMRES()  # None: stop where it would take over
     restarts: int = 2
+    direct: bool = True
+
+    def solves_directly(self) -> bool:
+        return self.direct
 
     def linear_solver(self, atol, max_products):
         half = 0.5 * atol  # the inner target: one inner solve usually suffices

@@ -19,6 +19,7 @@ from lumijax.radiosity._estimate import (
     solve_column_bytes,
     solve_memory_bytes,
 )
+from lumijax.radiosity._solvers import Refined
 
 from .conftest import quad
 
@@ -52,7 +53,8 @@ def solve(op, rho, b0, **kw):
     return solve_radiosity(op, jnp.asarray(rho), jnp.asarray(b0), correct_rows=False, **kw)
 
 
-@pytest.mark.parametrize("solver", ["bicgstab", "refined"])
+# the default iterating (its direct solve of a small room takes no batches: tests/radiosity/test_lu.py)
+@pytest.mark.parametrize("solver", ["bicgstab", Refined(direct=False)], ids=["bicgstab", "refined"])
 def test_every_batch_size_gives_the_unbatched_solve(pair, solver):
     p, op, f = pair
     rho, b0 = columns(p.n)
@@ -99,11 +101,13 @@ def test_the_batch_comes_from_the_memory_budget(pair, monkeypatch):
     # room for 4 columns in the solve's share: 15 columns in 4 batches (4, 4, 4, 3 → 4 × 4)
     monkeypatch.setenv("LUMIJAX_MEMORY_BYTES", str(int((4.5 * per) / SOLVE_SHARE)))
     seen = []
-    got = solve(op, rho, b0, rtol=1e-11, progress=lambda d, t: seen.append(d))
+    iterating = Refined(direct=False)  # a direct solve of a small room takes no batches
+    got = solve(op, rho, b0, rtol=1e-11, progress=lambda d, t: seen.append(d), solver=iterating)
     assert seen == [4, 8, 12, 15]
     monkeypatch.setenv("LUMIJAX_MEMORY_BYTES", str(10**12))
     seen.clear()
-    whole = solve(op, rho, b0, rtol=1e-11, progress=lambda d, t: seen.append(d))
+    whole = solve(op, rho, b0, rtol=1e-11, progress=lambda d, t: seen.append(d),
+                  solver=iterating)
     assert seen == [15]
     np.testing.assert_allclose(np.asarray(got.value), np.asarray(whole.value), rtol=1e-12)
     # not even one column and the results fit: refused before the solve, naming what helps

@@ -16,7 +16,7 @@ import pytest
 
 from lumijax import _executables, _jit_cache
 from lumijax.errors import LumijaxWarning
-from lumijax.radiosity import solve_radiosity
+from lumijax.radiosity import Refined, solve_radiosity
 
 pytestmark = pytest.mark.filterwarnings("error::lumijax.errors.LumijaxWarning")
 
@@ -69,19 +69,20 @@ def store_off(op, rho, b0, **kw):
 
 
 def test_a_stored_solve_is_not_traced_again_and_gives_the_same_bits(store, cube_room):
-    # the default method: GMRES's LAPACK custom calls are stored too
+    # the default method, iterating: GMRES's LAPACK custom calls are stored too
     op, rho, b0 = problem(cube_room)
-    first = solve_radiosity(op, rho, b0)
+    iterating = Refined(direct=False)
+    first = solve_radiosity(op, rho, b0, solver=iterating)
     files = list(store.glob(f"radiosity_solve-*{_executables.SUFFIX}"))
     assert len(files) == 1 and files[0].read_bytes().startswith(_executables.MAGIC)
     forget()
-    again, traced = traces(lambda: solve_radiosity(op, rho, b0))
+    again, traced = traces(lambda: solve_radiosity(op, rho, b0, solver=iterating))
     assert "radiosity_solve" not in traced and "_solve_body" not in traced  # loaded, not traced
     assert np.array_equal(np.asarray(first.value), np.asarray(again.value))
     assert int(first.iterations) == int(again.iterations)
     assert bool(again.stats["closed"]) and again.result == first.result
     # against the store off: the same numbers bit for bit
-    off = store_off(op, rho, b0)
+    off = store_off(op, rho, b0, solver=iterating)
     assert np.array_equal(np.asarray(off.value), np.asarray(first.value))
     assert float(off.residual) == float(first.residual)
     assert np.array_equal(np.asarray(off.escaped), np.asarray(first.escaped))
@@ -167,7 +168,7 @@ jax.config.update("jax_enable_x64", True)
 from lumijax._jit_cache import enable_compilation_cache
 enable_compilation_cache()
 import trimesh
-from lumijax.radiosity import build_operator, mesh_patches, partition, solve_radiosity
+from lumijax.radiosity import Refined, build_operator, mesh_patches, partition, solve_radiosity
 names = []
 jax.monitoring.register_event_duration_secs_listener(
     lambda e, d, **kw: names.append(kw.get("fun_name", "?"))
@@ -177,7 +178,7 @@ mesh.invert()
 p = mesh_patches(mesh.triangles, patch_size=0.15)
 op = build_operator(p, partition(p, 512, occluders=mesh.triangles), mesh.triangles)
 b0 = np.random.default_rng(1).uniform(0.0, 100.0, (p.n, 2))
-out = solve_radiosity(op, np.full(p.n, 0.7), b0)
+out = solve_radiosity(op, np.full(p.n, 0.7), b0, solver=Refined(direct=False))
 print(json.dumps({"b": np.asarray(out.value).tolist(), "traced": names}))
 """
 

@@ -174,7 +174,8 @@ def test_reflectance_of_one_in_closed_room_is_refused(cube_room):
 def test_non_convergence_names_the_config_keys(small_cube):
     # The message names what a user can change, not lineax's max_steps / restart.
     p, op = small_cube
-    solver = Refined(inner=BiCGStab(stall=0), fallback=GMRES(restart=2), restarts=1)
+    solver = Refined(inner=BiCGStab(stall=0), fallback=GMRES(restart=2), restarts=1,
+                     direct=False)
     with pytest.raises(SolveError) as err:
         solve_radiosity(op, jnp.full(p.n, 0.9), jnp.ones((p.n, 1)), solver=solver, max_steps=4,
                         rtol=1e-7)
@@ -263,7 +264,7 @@ def test_a_plain_solve_compiles_the_refinement_without_its_fallback(small_cube, 
     rho, b0 = np.full(p.n, 0.8), np.ones((p.n, 2))
     exact = np.linalg.solve(np.eye(p.n) - rho[:, None] * op.todense(), b0)
     plain = solve_radiosity(op, jnp.asarray(rho), jnp.asarray(b0), rtol=1e-9,
-                            correct_rows=False)
+                            correct_rows=False, solver=Refined(direct=False))
     assert [type(s).__name__ for s in seen] == ["Refined"] and seen[0].fallback is None
     np.testing.assert_allclose(np.asarray(plain.value), exact, rtol=1e-7)
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from lumijax.radiosity import _progress, _solve, solve_radiosity
-from lumijax.radiosity._solvers import Jacobi
+from lumijax.radiosity._solvers import Jacobi, Refined
 
 
 def test_the_fraction_is_the_log_residual_of_a_furnace():
@@ -63,7 +63,8 @@ def test_one_listener_at_a_time():
     assert outer == [pytest.approx(0.5)] and inner == []  # and never back
 
 
-@pytest.mark.parametrize("method", ["refined", "southwell", "gmres"])
+@pytest.mark.parametrize("method", [Refined(direct=False), "southwell", "gmres"],
+                         ids=["refined", "southwell", "gmres"])
 def test_a_large_batch_reports_within_and_keeps_its_bits(cube_room, monkeypatch, method):
     p, _, op = cube_room
     rng = np.random.default_rng(1)

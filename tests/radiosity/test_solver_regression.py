@@ -142,7 +142,7 @@ def test_refined_recovers_when_its_inner_solver_breaks_down(regression_rooms):
     # An inner BiCGStab that gives up at once (stall = 0) fails every inner solve: after
     # `restarts` failures the GMRES fallback must finish the job, judged by numpy's residual.
     p, op, rho, b0, fc, _ = regression_rooms
-    solver = Refined(inner=BiCGStab(stall=0), fallback=GMRES(), restarts=2)
+    solver = Refined(inner=BiCGStab(stall=0), fallback=GMRES(), restarts=2, direct=False)
     sol = solve_radiosity(op, jnp.asarray(rho[:, None, :], jnp.float32),
                           jnp.asarray(b0, jnp.float32), solver=solver, rtol=RTOL)
     assert bool(sol.stats["fallback"])

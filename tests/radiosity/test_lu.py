@@ -1,0 +1,171 @@
+"""A small room's solve outside a trace is one LU factorisation on the host (radiosity/_lu.py):
+the dense system's answer by numpy, the figures the iterative solve gives, and no program
+compiled; the iterative solve where the work or the tolerance says so, and inside a trace."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from lumijax.radiosity import (
+    Refined,
+    _lu,
+    _solve,
+    build_operator,
+    mesh_patches,
+    partition,
+    solve_radiosity,
+)
+
+from .conftest import quad
+
+pytestmark = pytest.mark.skipif(not jax.config.read("jax_enable_x64"),
+                                reason="the comparisons are in float64")
+
+
+@pytest.fixture
+def compiled(monkeypatch):
+    """The solvers the compiled (iterative) solve ran, in order."""
+    seen, real = [], _solve._solve_compiled
+
+    def spy(*args, **kw):
+        seen.append(args[3])
+        return real(*args, **kw)
+
+    monkeypatch.setattr(_solve, "_solve_compiled", spy)
+    return seen
+
+
+@pytest.fixture(scope="module")
+def open_pair():
+    """Two facing 1 m squares 0.5 m apart: light escapes between them."""
+    tri = np.concatenate([quad([0, 0, 0], [1, 0, 0], [0, 1, 0]),
+                          quad([0, 0, 0.5], [0, 1, 0], [1, 0, 0])])
+    p = mesh_patches(tri, group=np.r_[0, 0, 1, 1], patch_size=0.25)
+    return p, build_operator(p, partition(p, 1024), None)
+
+
+def test_a_closed_room_is_solved_directly_to_the_dense_answer(cube_room, compiled):
+    p, _, op = cube_room
+    f = np.asarray(op.todense(), np.float64)
+    rows = f.sum(axis=1)
+    b0 = np.random.default_rng(0).uniform(0.0, 100.0, (p.n, 3))
+    sol = solve_radiosity(op, jnp.full(p.n, 0.9), jnp.asarray(b0), rtol=1e-11)
+    assert compiled == []  # nothing iterated, so nothing compiled
+    assert sol.stats["direct"] and int(sol.iterations) == 0 and bool(sol.stats["closed"])
+    # a closed box's outgoing light normalised (F_ij → F_ij / s_j), then numpy's dense solve
+    ref = np.linalg.solve(np.eye(p.n) - 0.9 * f / rows[None, :], b0)
+    np.testing.assert_allclose(np.asarray(sol.value), ref, rtol=1e-10)
+    assert float(sol.residual) <= 1e-11
+    assert float(np.max(np.asarray(sol.escaped))) < 1e-9
+    assert float(sol.stats["row_max"]) == pytest.approx(rows.max(), rel=1e-12)
+
+
+@pytest.mark.parametrize("correct_rows", [True, False])
+def test_the_direct_figures_are_the_iterative_ones(open_pair, compiled, correct_rows):
+    # per-wavelength reflectance (one factorisation per distinct column) in an open scene:
+    # the radiosity, the escaped and created light and the flags as the iterative solve's
+    p, op = open_pair
+    rng = np.random.default_rng(1)
+    rho = rng.uniform(0.2, 0.9, (p.n, 1, 4))
+    rho[:, :, 3] = rho[:, :, 1]  # one reflectance for two wavelengths: three factorisations
+    b0 = rho * rng.uniform(10.0, 100.0, (p.n, 2, 4))
+    kw = dict(rtol=1e-11, correct_rows=correct_rows)
+    direct = solve_radiosity(op, jnp.asarray(rho), jnp.asarray(b0), **kw)
+    assert compiled == [] and direct.stats["direct"]
+    iterative = solve_radiosity(op, jnp.asarray(rho), jnp.asarray(b0),
+                                solver=Refined(direct=False), **kw)
+    assert len(compiled) >= 1 and not iterative.stats["direct"]
+    np.testing.assert_allclose(np.asarray(direct.value), np.asarray(iterative.value),
+                               rtol=1e-9)
+    escaped = np.asarray(direct.escaped)
+    assert escaped.shape == (2, 4) and 0.2 < escaped.min() < 1.0  # open: light leaves
+    np.testing.assert_allclose(escaped, np.asarray(iterative.escaped), rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(direct.stats["created"]),
+                               np.asarray(iterative.stats["created"]), atol=1e-12)
+    assert float(direct.stats["row_max"]) == pytest.approx(
+        float(iterative.stats["row_max"]), rel=1e-12)
+    assert bool(direct.stats["closed"]) == bool(iterative.stats["closed"]) is False
+    assert direct.stats["columns_solved"] == iterative.stats["columns_solved"] == 8
+
+
+def test_one_factorisation_per_distinct_reflectance(monkeypatch, open_pair):
+    p, op = open_pair
+    rng = np.random.default_rng(2)
+    grey = np.full((p.n, 3), 0.5)
+    first, inverse = _lu.direct_groups(grey, None)
+    assert len(first) == 1 and list(inverse) == [0, 0, 0]
+    spectral = rng.uniform(0.2, 0.8, (p.n, 3))
+    spectral[:, 2] = spectral[:, 0]
+    tau = np.zeros_like(spectral)
+    tau[:, 2] = 0.1  # equal reflectance, different transmittance: not one system
+    assert len(_lu.direct_groups(spectral, None)[0]) == 2
+    assert len(_lu.direct_groups(spectral, tau)[0]) == 3
+    factored = []
+    real = np.linalg.solve
+    monkeypatch.setattr(np.linalg, "solve", lambda a, b: factored.append(b.shape) or real(a, b))
+    b0 = rng.uniform(1.0, 10.0, (p.n, 6))
+    sol = solve_radiosity(op, jnp.full(p.n, 0.6), jnp.asarray(b0), rtol=1e-11)  # grey
+    assert sol.stats["direct"] and factored == [(p.n, 6)]  # one LU, every column at once
+
+
+def test_more_work_than_the_limit_iterates(open_pair, compiled, monkeypatch):
+    p, op = open_pair
+    b0 = jnp.asarray(np.random.default_rng(3).uniform(1.0, 10.0, (p.n, 2)))
+    monkeypatch.setattr(_lu, "DIRECT_WORK", p.n**3 - 1)
+    sol = solve_radiosity(op, jnp.full(p.n, 0.6), b0, rtol=1e-11)
+    assert not sol.stats["direct"] and len(compiled) >= 1
+    monkeypatch.setattr(_lu, "DIRECT_WORK", p.n**3)
+    compiled.clear()
+    sol = solve_radiosity(op, jnp.full(p.n, 0.6), b0, rtol=1e-11)
+    assert sol.stats["direct"] and compiled == []
+
+
+def test_a_direct_solve_short_of_the_tolerance_hands_over_to_the_iterative_one(
+        open_pair, compiled, monkeypatch):
+    p, op = open_pair
+    b0 = jnp.asarray(np.random.default_rng(4).uniform(1.0, 10.0, (p.n, 2)))
+    real = _lu.direct_solve
+
+    def off(*args):  # as if LAPACK had lost the digits (a near-singular system)
+        b, residual, *rest = real(*args)
+        return (b * 1.01, 1e-2, *rest)
+
+    monkeypatch.setattr(_lu, "direct_solve", off)
+    sol = solve_radiosity(op, jnp.full(p.n, 0.6), b0, rtol=1e-11)
+    assert not sol.stats["direct"] and len(compiled) >= 1
+    assert float(sol.residual) <= 1e-11  # the iterative solve's own answer, not the bad one
+
+
+def test_other_methods_and_traced_solves_iterate(open_pair, compiled):
+    p, op = open_pair
+    rho = jnp.full(p.n, 0.6)
+    b0 = jnp.asarray(np.random.default_rng(5).uniform(1.0, 10.0, (p.n, 2)))
+    for method in ("bicgstab", Refined(direct=False)):  # a method, or the default told not to
+        assert not solve_radiosity(op, rho, b0, solver=method, rtol=1e-9).stats["direct"]
+    compiled.clear()
+    direct = solve_radiosity(op, rho, b0, rtol=1e-11).value
+    assert compiled == []
+    # inside jit and grad: the implicit-differentiated Krylov solve, as before
+    traced = jax.jit(lambda r: solve_radiosity(op, r, b0, rtol=1e-11).value)(rho)
+    np.testing.assert_allclose(np.asarray(traced), np.asarray(direct), rtol=1e-9)
+    g = jax.grad(lambda r: solve_radiosity(op, r, b0, rtol=1e-11).value.sum())(rho)
+    assert np.all(np.isfinite(np.asarray(g))) and float(jnp.sum(g)) > 0
+
+
+def test_the_patch_product_on_the_host_is_the_compiled_one(cube_room):
+    # lighting/_solution.py: F'b of a small operator by numpy on the direct solve's matrix
+    import dataclasses
+
+    from lumijax.lighting._solution import _corrected_matmul, _corrected_matmul_kernel
+    from lumijax.radiosity._operator import Info
+
+    p, _, op = cube_room
+    b = np.random.default_rng(6).uniform(0.0, 50.0, (p.n, 3))
+    host = _corrected_matmul(op, jnp.asarray(b))
+    assert isinstance(host, np.ndarray)
+    kernel = np.asarray(_corrected_matmul_kernel(dataclasses.replace(op, info=Info()),
+                                                 jnp.asarray(b)))
+    np.testing.assert_allclose(host, kernel, rtol=1e-10)
