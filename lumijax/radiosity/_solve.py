@@ -394,8 +394,9 @@ def _direct(transport, rho, b0, tau, partner, rtol: float, correct_rows: bool):
     from ._lu import DIRECT_WORK, direct_groups, direct_solve
 
     n = transport.n_patches
-    groups = len(direct_groups(rho, tau)[0])
-    if groups * float(n) ** 3 > DIRECT_WORK:
+    if float(n) ** 3 > DIRECT_WORK:  # first: grouping a large study's columns copies them
+        return None
+    if len(direct_groups(rho, tau)[0]) * float(n) ** 3 > DIRECT_WORK:
         return None
     g = dense_matrix(transport, patch_bucket(n))
     if g is None:
