@@ -153,10 +153,17 @@ def test_other_methods_and_traced_solves_iterate(open_pair, compiled):
     compiled.clear()
     direct = solve_radiosity(op, rho, b0, rtol=1e-11).value
     assert compiled == []
-    # inside jit and grad: the implicit-differentiated Krylov solve, as before
-    traced = jax.jit(lambda r: solve_radiosity(op, r, b0, rtol=1e-11).value)(rho)
-    np.testing.assert_allclose(np.asarray(traced), np.asarray(direct), rtol=1e-9)
-    g = jax.grad(lambda r: solve_radiosity(op, r, b0, rtol=1e-11).value.sum())(rho)
+    # inside grad (and so jit): the implicit-differentiated Krylov solve, as before
+    traced = []
+
+    def total(r):
+        value = solve_radiosity(op, r, b0, rtol=1e-11).value
+        traced.append(isinstance(value, jax.core.Tracer))
+        return value.sum(), value
+
+    (_, value), g = jax.value_and_grad(total, has_aux=True)(rho)
+    assert traced == [True] and len(compiled) >= 1  # the iterative program, traced
+    np.testing.assert_allclose(np.asarray(value), np.asarray(direct), rtol=1e-9)
     assert np.all(np.isfinite(np.asarray(g))) and float(jnp.sum(g)) > 0
 
 
