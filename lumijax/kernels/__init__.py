@@ -12,6 +12,7 @@ from ._direct import (
 from ._form_factors import (
     far_g as far_g,
     form_factor_far as form_factor_far,
+    form_factor_point_front_triangle as form_factor_point_front_triangle,
     form_factor_point_triangle as form_factor_point_triangle,
     triangle_spread as triangle_spread,
 )

@@ -4,7 +4,8 @@
   differential receiver to a triangle, with the triangle first clipped to the receiver's front
   half-space (horizon clipping) so that partly-behind sources are exact too. Exact for an
   unoccluded source: the only error left in a patch-to-patch factor is the quadrature over the
-  receiver.
+  receiver. :func:`form_factor_point_front_triangle` is the same sum without the clipping, for
+  a source the caller knows to be wholly in front (most near pairs; 0.4 of the time).
 * :func:`form_factor_far` — the reciprocal point-to-point estimate with a second-order
   finite-area correction for well-separated patches (:func:`far_g`, shared with the host-side
   numpy build).
@@ -16,7 +17,13 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-__all__ = ["form_factor_point_triangle", "form_factor_far", "far_g", "triangle_spread"]
+__all__ = [
+    "form_factor_point_triangle",
+    "form_factor_point_front_triangle",
+    "form_factor_far",
+    "far_g",
+    "triangle_spread",
+]
 
 _TWO_PI = 2.0 * jnp.pi
 
@@ -80,19 +87,41 @@ def form_factor_point_triangle(
     zero if the receiver is behind the triangle's plane.
     """
     r = triangle - point[..., None, :]
-    # Source front face: light leaves the triangle only on its front side.
-    m = jnp.cross(r[..., 1, :] - r[..., 0, :], r[..., 2, :] - r[..., 0, :])
-    in_front_of_source = -jnp.sum(r[..., 0, :] * m, axis=-1) > 0
     s = jnp.sum(r * normal[..., None, :], axis=-1)
     poly, any_front = _clip_to_front(r, s)
+    return jnp.where(_faces(r) & any_front, _contour(poly, normal), 0.0)
+
+
+def form_factor_point_front_triangle(
+    point: Float[Array, "... 3"],
+    normal: Float[Array, "... 3"],
+    triangle: Float[Array, "... 3 3"],
+) -> Float[Array, "..."]:
+    """:func:`form_factor_point_triangle` for a triangle wholly in front of the receiver
+    (every vertex ``v`` with ``(v − point)·normal > 0``; the caller's promise, unchecked):
+    no horizon clipping, three edges, 0.39–0.43 of the clipped kernel's time for 4,096
+    points (docs/radiosity.md, "The near field's two kernels"). Where the promise holds the
+    two agree to rounding: clipping leaves such a triangle whole."""
+    r = triangle - point[..., None, :]
+    return jnp.where(_faces(r), _contour(r, normal), 0.0)
+
+
+def _faces(r: Float[Array, "... 3 3"]) -> Array:
+    """Whether the receiver is in front of the triangle (vertices ``r`` relative to it): light
+    leaves a source triangle only on its front side."""
+    m = jnp.cross(r[..., 1, :] - r[..., 0, :], r[..., 2, :] - r[..., 0, :])
+    return -jnp.sum(r[..., 0, :] * m, axis=-1) > 0
+
+
+def _contour(poly: Float[Array, "... k 3"], normal: Float[Array, "... 3"]) -> Array:
+    """Lambert's contour sum over a closed polygon (vertices relative to the receiver)."""
     a, b = poly, jnp.roll(poly, -1, axis=-2)
     c = jnp.cross(a, b)
     cn = jnp.sqrt(jnp.sum(c * c, axis=-1))
     gamma = jnp.arctan2(cn, jnp.sum(a * b, axis=-1))
     # Zero-length or collinear edges have c = 0: their term is 0 (γ→0 or n·c/|c| bounded).
     term = gamma * jnp.sum(c * normal[..., None, :], axis=-1) / jnp.where(cn > 0, cn, 1.0)
-    f = jnp.abs(jnp.sum(term, axis=-1)) / _TWO_PI
-    return jnp.where(in_front_of_source & any_front, f, 0.0)
+    return jnp.abs(jnp.sum(term, axis=-1)) / _TWO_PI
 
 
 def far_g(a, b, c, d2, ai, aj, si, sj, xp=np):

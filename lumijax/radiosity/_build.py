@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -25,7 +26,13 @@ import numpy as np
 
 from .. import _executables
 from .._jit_cache import to_device
-from ..kernels import far_g, form_factor_point_triangle, rounding_length, triangle_spread
+from ..kernels import (
+    far_g,
+    form_factor_point_front_triangle,
+    form_factor_point_triangle,
+    rounding_length,
+    triangle_spread,
+)
 from ..parallel import Executor, batches, current_executor, threaded_map
 from ._hierarchy import cluster_tree, walk_block_tree
 from ._lowrank import Obstacles, aca_block, block_spheres, truncate_block, well_separated
@@ -183,16 +190,31 @@ def _contour_kernel(q, n, tri):
     return form_factor_point_triangle(q, n, tri)
 
 
-_contour_flat = _executables.stored("contour_flat", "radiosity/_build.py", "kernels/")(
-    _contour_kernel)
-#: The same kernel for a small build (at most :data:`~._operator.DENSE_PATCHES` patches: the
-#: studies whose solve is one dense block, and whose blocks are small), compiled
-#: quickly (:func:`lumijax._executables.quick_to_compile`): a small study compiles it once and
-#: calls it a few times (the cube's first run: 0.43 s of its compiling), a large one calls it
-#: for minutes and keeps XLA's faster code (~9 %).
-_contour_flat_quick = _executables.stored(
-    "contour_flat", "radiosity/_build.py", "kernels/",
-    options=lambda *args: _executables.quick_to_compile())(_contour_kernel)
+def _front_kernel(q, n, tri):
+    """:func:`_contour_kernel` for triangles wholly in front of their receivers: unclipped."""
+    return form_factor_point_front_triangle(q, n, tri)
+
+
+def _kernels(quick: bool) -> tuple:
+    """The contour kernels ``(clipped, unclipped)`` as stored programs. ``quick``: compiled
+    quickly (:func:`lumijax._executables.quick_to_compile`), for a small build (at most
+    :data:`~._operator.DENSE_PATCHES` patches: the studies whose solve is one dense block,
+    and whose blocks are small), which compiles them once and calls them a few times (the
+    cube's first run: 0.43 s of its compiling); a large one calls them for minutes and keeps
+    XLA's faster code (~9 %)."""
+    options = (lambda *args: _executables.quick_to_compile()) if quick else None
+    return tuple(_executables.stored(name, "radiosity/_build.py", "kernels/", options=options)(fn)
+                 for name, fn in (("contour_flat", _contour_kernel),
+                                  ("contour_front", _front_kernel)))
+
+
+_CONTOUR = _kernels(quick=False)
+_CONTOUR_QUICK = _kernels(quick=True)
+
+#: A vertex counts as wholly in front of a receiver's plane (the unclipped kernel) beyond this
+#: fraction of the pair's size: far past float32's rounding of the kernel's relative
+#: coordinates (≈ 10⁻⁷ of a few sizes), so the clipped kernel would not clip it either.
+_WHOLE = 1e-5
 
 
 def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
@@ -204,10 +226,29 @@ def _quad_points(vertices: np.ndarray, nsub: int) -> np.ndarray:
     )
 
 
-def _contour_start(q, n, tri, kernel=_contour_flat):
+def _contour_start(q, n, tri, kernels, whole=None):
     """Dispatch the factors of each pair's receiver points q (N, Q, 3) to tri (N, 3, 3): the
     kernel calls run while the caller works on (JAX's asynchronous dispatch); finish with
-    :func:`_contour_mean`."""
+    :func:`_contour_mean`. ``kernels``: ``(clipped, unclipped)``; ``whole`` (N,): the pairs
+    whose triangle lies wholly in front of the receiver's plane, which the unclipped kernel
+    takes (docs/radiosity.md, "The near field's two kernels"); None: every pair clipped."""
+    if whole is None or not whole.any():
+        return _dispatch(q, n, tri, kernels[0])
+    if whole.all():
+        return _dispatch(q, n, tri, kernels[1])
+    return _Split([(rows, _dispatch(q[rows], n[rows], tri[rows], k))
+                   for rows, k in ((np.flatnonzero(whole), kernels[1]),
+                                   (np.flatnonzero(~whole), kernels[0]))], len(q))
+
+
+class _Split(NamedTuple):
+    """Pairs dispatched to both kernels: each part's rows of the pairs and its calls."""
+
+    parts: list
+    npair: int
+
+
+def _dispatch(q, n, tri, kernel):
     npair, nq = q.shape[:2]
     # Relative coordinates (float64 on the host) so that float32 in the kernel keeps precision;
     # rounded to the kernel's dtype here, before the repeats (JAX would round each batch the
@@ -232,6 +273,11 @@ def _contour_start(q, n, tri, kernel=_contour_flat):
 
 def _contour_mean(started) -> np.ndarray:
     """Mean over each pair's receiver points of the factors :func:`_contour_start` dispatched."""
+    if isinstance(started, _Split):
+        out = np.empty(started.npair)
+        for rows, part in started.parts:
+            out[rows] = _contour_mean(part)
+        return out
     calls, npair, nq = started
     out = np.empty(npair * nq)
     for k, c in enumerate(calls):
@@ -252,11 +298,12 @@ def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
 
 
 def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster, counters,
-                      diam):
+                      diam, whole=None):
     """``A_i F_ij`` (m²) for the near pairs ``ia[li]``, ``ib[lj]`` of two blocks by the
     contour integral and receiver quadrature, its kernel calls dispatched now: returns the
     function that waits for them and gives it (the caller computes the far field meanwhile).
-    ``diam``: every patch's diameter."""
+    ``diam``: every patch's diameter; ``whole``: per pair, whether j lies wholly in front of
+    i's plane and i of j's (:func:`_contour_start`), or None."""
     i, j = ia[li], ib[lj]
     g = np.zeros(len(i))
     if not len(i):
@@ -265,7 +312,7 @@ def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster,
     r = d / np.maximum(diam[i], diam[j])
     close = r < s.close_ratio * (1 + _TIE)
     parts = []
-    kernel = _contour_flat_quick if p.n <= DENSE_PATCHES else _contour_flat
+    kernels = _CONTOUR_QUICK if p.n <= DENSE_PATCHES else _CONTOUR
     for sel, nsub, rays in ((close, s.close_subdiv, s.close_rays), (~close, s.mid_subdiv, s.mid_rays)):
         ii, jj = i[sel], j[sel]
         if not len(ii):
@@ -274,8 +321,10 @@ def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster,
         # near partners): the same points, so the same factors bit for bit
         qi = _quad_points(p.vertices[ia], nsub)[li[sel]]
         qj = _quad_points(p.vertices[ib], nsub)[lj[sel]]
-        f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj], kernel)
-        f_ji = _contour_start(qj, p.normal[jj], p.vertices[ii], kernel) if s.symmetrise else None
+        w_ij, w_ji = (None, None) if whole is None else (whole[0][sel], whole[1][sel])
+        f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj], kernels, w_ij)
+        f_ji = (_contour_start(qj, p.normal[jj], p.vertices[ii], kernels, w_ji)
+                if s.symmetrise else None)
         parts.append((sel, ii, jj, qi, qj, rays, f_ij, f_ji))
 
     def finish() -> np.ndarray:
@@ -324,12 +373,14 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
         # in front by more than the rounding of the coordinates: a floor vertex on the wall's
         # plane is not "in front" of it because the room sits at 10⁷ m
         tol = np.maximum(1e-9 * size[ni_i, nj_j], max(rounding_length(vi), rounding_length(vj)))
-        front_j = (np.einsum("nkc,nc->nk", vj - ci[ni_i, None], ni[ni_i]) > tol[:, None]).any(1)
-        front_i = (np.einsum("nkc,nc->nk", vi - cj[nj_j, None], nj[nj_j]) > tol[:, None]).any(1)
-        keep = front_i & front_j
+        ahead_j = np.einsum("nkc,nc->nk", vj - ci[ni_i, None], ni[ni_i])  # j's corners, i's side
+        ahead_i = np.einsum("nkc,nc->nk", vi - cj[nj_j, None], nj[nj_j])
+        keep = (ahead_i > tol[:, None]).any(1) & (ahead_j > tol[:, None]).any(1)
+        clear = np.maximum(tol, _WHOLE * size[ni_i, nj_j])[:, None]
+        whole = ((ahead_j > clear).all(1)[keep], (ahead_i > clear).all(1)[keep])
         ni_i, nj_j = ni_i[keep], nj_j[keep]
         counters["near_pairs"] += len(ni_i)
-        near_done = _near_pairs_start(p, ia, ib, ni_i, nj_j, s, caster, counters, diam)
+        near_done = _near_pairs_start(p, ia, ib, ni_i, nj_j, s, caster, counters, diam, whole)
     far = ~near & (cos_i > 0) & (cos_j > 0) & upper
     # the far kernel (form_factor_far) in float64 numpy (host side) on the far pairs only, by
     # flat index: the same operations on the same numbers as on the whole block, without the

@@ -6,7 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from lumijax.kernels import form_factor_point_triangle
+from lumijax.kernels import form_factor_point_front_triangle, form_factor_point_triangle
 
 from .conftest import disk, quad, surface_factor
 
@@ -25,6 +25,34 @@ def test_point_to_parallel_rectangle(a, b, c, ref):
     # The rectangle faces down (−z) at height c, above the receiver at its corner.
     f = point_to_quad([0, 0, 0], [0, 0, 1], [0, 0, c], [0, b, 0], [a, 0, 0])
     assert f == pytest.approx(ref, rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("a", "b", "c", "ref"),
+    [(1, 1, 1, 0.1385316060), (2, 3, 1.5, 0.1880837353), (0.5, 0.5, 2, 0.0183694087)],
+)
+def test_the_unclipped_kernel_on_a_parallel_rectangle(a, b, c, ref):
+    # the same closed form through the kernel for sources wholly in front (no clipping)
+    t = jnp.asarray(quad([0, 0, c], [0, b, 0], [a, 0, 0]))
+    f = form_factor_point_front_triangle(jnp.zeros(3), jnp.asarray([0.0, 0.0, 1.0]), t)
+    assert float(f.sum()) == pytest.approx(ref, rel=1e-9)
+
+
+def test_the_unclipped_kernel_is_the_clipped_one_in_front_and_faces_the_same_way():
+    # random triangles every corner of which is in front of the receiver, of either winding
+    rng = np.random.default_rng(0)
+    p = rng.normal(size=(500, 3))
+    n = rng.normal(size=(500, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    corners = rng.normal(size=(500, 3, 3))
+    corners += (0.05 + np.abs(np.einsum("tkc,tc->tk", corners, n)))[..., None] * n[:, None]
+    assert np.all(np.einsum("tkc,tc->tk", corners, n) > 0)
+    tri = p[:, None] + corners
+    args = jnp.asarray(p), jnp.asarray(n), jnp.asarray(tri)
+    clipped, unclipped = form_factor_point_triangle(*args), form_factor_point_front_triangle(*args)
+    assert 0 < int(np.sum(np.asarray(clipped) == 0)) < 500  # some face away: 0 from both
+    np.testing.assert_allclose(np.asarray(unclipped), np.asarray(clipped), rtol=1e-12,
+                               atol=1e-15)
 
 
 @pytest.mark.parametrize("below", [0.0, 1.0])
