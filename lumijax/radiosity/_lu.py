@@ -37,11 +37,14 @@ def direct_groups(rho: np.ndarray, tau: np.ndarray | None) -> tuple[np.ndarray, 
 
 
 def direct_solve(g: np.ndarray, area: np.ndarray, rho: np.ndarray, b0: np.ndarray,
-                 tau: np.ndarray | None, partner: np.ndarray | None, correct_rows: bool):
+                 tau: np.ndarray | None, partner: np.ndarray | None, correct_rows: bool,
+                 groups: tuple[np.ndarray, np.ndarray] | None = None):
     """Solve ``(I − ρF' − τ P F') y = c B₀`` for every column, ``B = y / c``.
 
     ``g``: ``G = diag(A) F`` (m², ``(P, P)``); ``area`` (m²); ``rho``, ``b0`` and ``tau``
-    ``(P, C)`` (B₀ in lm/m²); ``partner`` ``(P,)`` the transmitting patch's other side.
+    ``(P, C)`` (B₀ in lm/m²); ``partner`` ``(P,)`` the transmitting patch's other side;
+    ``groups``: :func:`direct_groups` of ``rho`` and ``tau`` where the caller has them (the
+    row correction scales every column of a row alike, so they are the corrected system's).
     Returns ``(b, residual, escaped, created, row_max, closed)`` with ``b`` in B₀'s dtype,
     ``residual`` the worst column's relative max-norm residual of the returned values (float64
     arithmetic, as ``radiosity._solve``'s), ``escaped`` and ``created`` per column.
@@ -59,7 +62,7 @@ def direct_solve(g: np.ndarray, area: np.ndarray, rho: np.ndarray, b0: np.ndarra
     rho_c = np.asarray(rho, np.float64) * c[:, None]
     tau_c = None if tau is None else np.asarray(tau, np.float64) * c[:, None]
     b0c = np.asarray(b0, np.float64) * c[:, None]
-    first, inverse = direct_groups(rho_c, tau_c)
+    first, inverse = direct_groups(rho, tau) if groups is None else groups
     y = np.empty(b0.shape, np.float64)
     system = np.empty_like(f)
     for k, j in enumerate(first):

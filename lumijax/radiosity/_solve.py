@@ -396,14 +396,16 @@ def _direct(transport, rho, b0, tau, partner, rtol: float, correct_rows: bool):
     n = transport.n_patches
     if float(n) ** 3 > DIRECT_WORK:  # first: grouping a large study's columns copies them
         return None
-    if len(direct_groups(rho, tau)[0]) * float(n) ** 3 > DIRECT_WORK:
+    groups = direct_groups(rho, tau)
+    if len(groups[0]) * float(n) ** 3 > DIRECT_WORK:
         return None
     g = dense_matrix(transport, patch_bucket(n))
     if g is None:
         return None
     area = np.asarray(transport.area)
     b, residual, escaped, created, row_max, closed = direct_solve(
-        g, area, rho, b0, tau, None if partner is None else np.asarray(partner), correct_rows)
+        g, area, rho, b0, tau, None if partner is None else np.asarray(partner), correct_rows,
+        groups)
     if not residual <= rtol:  # NaN included
         return None
     dtype = b0.dtype
@@ -491,7 +493,8 @@ def _merge(parts):
     result = results[0]
     for r in results[1:]:  # the first failure is the solve's
         result = lx.RESULTS.where(result == lx.RESULTS.successful, r, result)
-    # a batch solved directly carries fewer counts than an iterated one (``_direct``)
+    # a part solved directly carries fewer counts than an iterated one (``_direct``): where
+    # join_solutions meets both, only the counts they share are merged
     merged = {key: (cat if key == "created" else worst)([s[key] for s in stats])
               for key in stats[0] if all(key in s for s in stats)}
     return worst(its), worst(res), result, cat(esc), merged
