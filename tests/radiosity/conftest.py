@@ -40,6 +40,15 @@ def surface_factor(t1, t2, patch_size):
     return f12, f21, a[m1].sum(), a[m2].sum(), op
 
 
+def facing_squares():
+    """Two facing 1 m squares 0.5 m apart (patches of 0.25 m) and their operator: a small open
+    scene with real form factors."""
+    tri = np.concatenate([quad([0, 0, 0], [1, 0, 0], [0, 1, 0]),
+                          quad([0, 0, 0.5], [0, 1, 0], [1, 0, 0])])
+    p = mesh_patches(tri, group=np.r_[0, 0, 1, 1], patch_size=0.25)
+    return p, build_operator(p, partition(p, 1024), None)
+
+
 def room(mesh: trimesh.Trimesh, patch_size: float, max_block: int = 512):
     mesh = mesh.copy()
     mesh.invert()  # inward-facing: a room seen from inside

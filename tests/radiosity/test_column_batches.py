@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from lumijax.errors import SolveError
-from lumijax.radiosity import build_operator, mesh_patches, partition, solve_radiosity
+from lumijax.radiosity import solve_radiosity
 from lumijax.radiosity._estimate import (
     SOLVE_SHARE,
     bound_sampled_memory,
@@ -21,7 +21,7 @@ from lumijax.radiosity._estimate import (
 )
 from lumijax.radiosity._solvers import Refined
 
-from .conftest import quad
+from .conftest import facing_squares
 
 pytestmark = pytest.mark.skipif(not jax.config.read("jax_enable_x64"),
                                 reason="the batch comparisons are in float64")
@@ -29,11 +29,8 @@ pytestmark = pytest.mark.skipif(not jax.config.read("jax_enable_x64"),
 
 @pytest.fixture(scope="module")
 def pair():
-    """Two facing 1 m squares 0.5 m apart: a small open scene with real form factors."""
-    tri = np.concatenate([quad([0, 0, 0], [1, 0, 0], [0, 1, 0]),
-                          quad([0, 0, 0.5], [0, 1, 0], [1, 0, 0])])
-    p = mesh_patches(tri, group=np.r_[0, 0, 1, 1], patch_size=0.25)
-    op = build_operator(p, partition(p, 1024), None)
+    """Two facing squares (``conftest.facing_squares``) and their dense F."""
+    p, op = facing_squares()
     return p, op, np.asarray(op.todense(), np.float64)
 
 

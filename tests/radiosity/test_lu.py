@@ -9,17 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from lumijax.radiosity import (
-    Refined,
-    _lu,
-    _solve,
-    build_operator,
-    mesh_patches,
-    partition,
-    solve_radiosity,
-)
+from lumijax.radiosity import Refined, _lu, _solve, solve_radiosity
 
-from .conftest import quad
+from .conftest import facing_squares
 
 pytestmark = pytest.mark.skipif(not jax.config.read("jax_enable_x64"),
                                 reason="the comparisons are in float64")
@@ -40,11 +32,8 @@ def compiled(monkeypatch):
 
 @pytest.fixture(scope="module")
 def open_pair():
-    """Two facing 1 m squares 0.5 m apart: light escapes between them."""
-    tri = np.concatenate([quad([0, 0, 0], [1, 0, 0], [0, 1, 0]),
-                          quad([0, 0, 0.5], [0, 1, 0], [1, 0, 0])])
-    p = mesh_patches(tri, group=np.r_[0, 0, 1, 1], patch_size=0.25)
-    return p, build_operator(p, partition(p, 1024), None)
+    """Two facing squares (``conftest.facing_squares``): light escapes between them."""
+    return facing_squares()
 
 
 def test_a_closed_room_is_solved_directly_to_the_dense_answer(cube_room, compiled):
