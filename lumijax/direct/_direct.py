@@ -112,7 +112,8 @@ def direct_illuminance(
     # range from 24 to 1,500 luminaires, and a bar counting them promised 6 s with 0.2 s left
     total = len(scene.luminaires) + len(scene.area_sources)
     lit = np.zeros(len(scene.luminaires), bool)
-    for c in pair_chunks(scene, points, normals, caster=caster, stats=stats, response=response):
+    for c in pair_chunks(scene, points, normals, caster=caster, stats=stats, response=response,
+                         geometry=False):
         flat = network[c.luminaire] * n_pts + c.receiver
         out.reshape(-1)[:] += np.bincount(flat, weights=c.light, minlength=out.size)
         if progress is not None:

@@ -97,13 +97,14 @@ class PairSet(eqx.Module):
 
 class PairChunk(NamedTuple):
     """A batch of unshadowed-then-shadowed pairs of one photometry (numpy, float64), with the
-    light of each at the start aims (lx)."""
+    light of each at the start aims (lx); ``direction`` and ``gain`` (what the aim model needs)
+    None where :func:`pair_chunks` was asked for the light alone."""
 
     photometry: str
     luminaire: np.ndarray
     receiver: np.ndarray
-    direction: np.ndarray
-    gain: np.ndarray
+    direction: np.ndarray | None
+    gain: np.ndarray | None
     light: np.ndarray
 
 
@@ -416,8 +417,7 @@ def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, resp
         rk = np.sqrt(np.einsum("pk,pk->p", off, off))
         f = response.factor(off / np.maximum(rk, np.finfo(np.float64).tiny)[:, None], rcv) > 0
         src, rcv, off, pi = src[f], rcv[f], off[f], pi[f]
-    w, gain = _geometry(off, n[pi], batch.scale[src], response, rcv)
-    return src, rcv, w, gain
+    return src, rcv, *_geometry(off, n[pi], batch.scale[src], response, rcv)
 
 
 def _kept(d, axis, cos_support, normal, from_centre, lo, hi):
@@ -477,8 +477,7 @@ def _owned_pairs(batch, owner, pts, nrm, axis, cos_support):
         # the band was chosen above by the same float64 operations: no second test of it
         keep = _kept(off.T, axis[src].T, cos_support[src], n.T, None, None, None)
         src, rcv, off = src[keep], rcv[keep], off[keep]
-        w, gain = _geometry(off, n[keep], batch.scale[src])
-        yield src, rcv, w, gain
+        yield src, rcv, *_geometry(off, n[keep], batch.scale[src])
         r0 = r1
 
 
@@ -528,22 +527,25 @@ def _stored_light(dist, rot_j, lum, w, gain, dtype=None) -> np.ndarray:
 
 def _geometry(offsets: np.ndarray, normals: np.ndarray, scale: np.ndarray, response=None,
               receiver=None):
-    """Unit directions and gains ``scale · cos θ_r / d²`` (m⁻²) from offsets receiver − source
-    (m), in float64 on the host: the kernel then never sees a coordinate, only a direction, so
-    the light does not depend on where the model sits. The guard on d² is float64's smallest
-    normal number, not a length (a fixed 1e-12 m² once clamped every pair of a µm model)."""
+    """Unit directions, gains ``scale · cos θ_r / d²`` (m⁻²) and distances d (m, the shadow
+    rays' lengths) from offsets receiver − source (m), in float64 on the host: the kernel then
+    never sees a coordinate, only a direction, so the light does not depend on where the model
+    sits. The guard on d² is float64's smallest normal number, not a length (a fixed 1e-12 m²
+    once clamped every pair of a µm model)."""
     r2 = np.maximum(np.einsum("ij,ij->i", offsets, offsets), np.finfo(np.float64).tiny)
-    w = offsets / np.sqrt(r2)[:, None]
+    d = np.sqrt(r2)
+    w = offsets / d[:, None]
     # a sensor (cylindrical, ...) reads its own response where a plane reads the cosine
     cos_r = np.maximum(-np.einsum("ij,ij->i", w, normals), 0.0) if response is None else (
         response.factor(w, receiver))
-    return w, scale * cos_r / r2
+    return w, scale * cos_r / r2, d
 
 
 def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = None,
                 widen=None, threshold: float = 0.0, caster=None,
                 stats: PairStats | None = None, response=None,
-                owner: np.ndarray | None = None) -> Iterator[PairChunk]:
+                owner: np.ndarray | None = None, geometry: bool = True
+                ) -> Iterator[PairChunk]:
     """The pairs of the luminaires ``selection`` (indices into ``scene.luminaires``, default
     all) and receivers ``points``/``normals`` (m, unit), in batches of at most about 10⁶.
 
@@ -556,7 +558,8 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
     (a :class:`lumijax.direct.SensorResponse`) makes the receivers sensors (cylindrical, ...)
     instead of planes of ``normals``. ``owner`` (``(points,)`` indices into ``selection``)
     pairs each receiver with that one luminaire only, planes only (``radiosity.near_light``'s
-    samples).
+    samples). ``geometry`` False: the chunks carry the light alone (no directions and gains,
+    which only the aim model reads).
     """
     sel = list(range(len(scene.luminaires))) if selection is None else list(selection)
     stats = PairStats(timing_s={}) if stats is None else stats
@@ -600,8 +603,8 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
                 pending_n += len(part[0])
                 stats.candidate_pairs += len(part[0])
             timing["cull"] += time.perf_counter() - t0
-            yield from _flush(pending, batch, dist, points, rot_j, caster, widened, stats,
-                              timing)
+            yield from _flush(pending, batch, dist, rot_j, caster, widened, stats,
+                              timing, geometry)
             continue
         for c0 in range(0, n_src, per_keep):
             t0 = time.perf_counter()
@@ -626,27 +629,28 @@ def pair_chunks(scene, points, normals, *, selection: Sequence[int] | None = Non
                     pending_n += len(part[0])
                     stats.candidate_pairs += len(part[0])
                     if pending_n >= _PAIRS_PER_CALL:
-                        yield from _flush(pending, batch, dist, points, rot_j, caster, widened,
-                                          stats, timing)
+                        yield from _flush(pending, batch, dist, rot_j, caster, widened,
+                                          stats, timing, geometry)
                         pending, pending_n = [], 0
-        yield from _flush(pending, batch, dist, points, rot_j, caster, widened, stats, timing)
+        yield from _flush(pending, batch, dist, rot_j, caster, widened, stats, timing,
+                          geometry)
 
 
-def _flush(pending, batch, dist, points, rot_j, caster, all_rays, stats, timing):
+def _flush(pending, batch, dist, rot_j, caster, all_rays, stats, timing, geometry):
     """The chunks (at most ``_PAIRS_PER_CALL`` pairs each) of the pending candidate pairs."""
     if not pending:
         return
-    src, rcv, w, gain = (np.concatenate([p[k] for p in pending]) for k in range(4))
+    src, rcv, w, gain, length = (np.concatenate([p[k] for p in pending]) for k in range(5))
     for p0 in range(0, len(src), _PAIRS_PER_CALL):
         s = slice(p0, p0 + _PAIRS_PER_CALL)
         yield _chunk(batch, dist, src[s].astype(np.int64), rcv[s].astype(np.int64), w[s],
-                     gain[s], points, rot_j, caster, all_rays, stats, timing)
+                     gain[s], length[s], rot_j, caster, all_rays, stats, timing, geometry)
 
 
-def _chunk(batch, dist, s_idx, r_idx, w, gain, points, rot_j, caster, all_rays, stats,
-           timing) -> PairChunk:
-    """Start light and shadow rays of one batch of candidate pairs (directions ``w`` and gains
-    from :func:`_geometry`)."""
+def _chunk(batch, dist, s_idx, r_idx, w, gain, length, rot_j, caster, all_rays, stats,
+           timing, geometry) -> PairChunk:
+    """Start light and shadow rays of one batch of candidate pairs (directions ``w``, gains
+    and distances from :func:`_geometry`: the rays need no second look at the points)."""
     t0 = time.perf_counter()
     lum = batch.luminaire[s_idx]
     n = len(s_idx)
@@ -658,7 +662,8 @@ def _chunk(batch, dist, s_idx, r_idx, w, gain, points, rot_j, caster, all_rays, 
         test = np.arange(n) if all_rays else np.flatnonzero(e > 0)
         if len(test):
             # 0 blocked, 1 clear, τ(θ) through clear glass (docs/materials.md)
-            through = caster.transmission(batch.position[s_idx[test]], points[r_idx[test]])
+            through = caster.transmission_along(batch.position[s_idx[test]], w[test],
+                                                length[test])
             keep[test[through <= 0]] = False
             glazed = test[(through > 0) & (through < 1)]
             if len(glazed):
@@ -670,7 +675,9 @@ def _chunk(batch, dist, s_idx, r_idx, w, gain, points, rot_j, caster, all_rays, 
         timing["shadow_rays"] += time.perf_counter() - t1
     if not all_rays:
         keep &= e > 0  # unlit at the start and never turned: nothing to keep
-    return PairChunk(batch.photometry, lum[keep], r_idx[keep], w[keep], gain[keep], e[keep])
+    k = np.flatnonzero(keep)
+    return PairChunk(batch.photometry, lum[k], r_idx[k], w[k] if geometry else None,
+                     gain[k] if geometry else None, e[k])
 
 
 def build_pairs(scene, points, normals, selection: Sequence[int], *, widen=None,

@@ -173,12 +173,15 @@ def near_light(scene, patches: Patches, *, progress=None
 
     def lit(span):
         near = _samples(patches, lum[span], pat[span], n[span])
-        owner, patch = near.luminaire[near.owner], near.patch[near.owner]
+        # only the part's own luminaires: their sources, not the scene's thousands, are made
+        # and sorted for each part
+        selection, owner = np.unique(near.luminaire[near.owner], return_inverse=True)
+        patch = near.patch[near.owner]
         part = np.zeros_like(out)
         stats = PairStats(timing_s={})
-        for c in pair_chunks(scene, near.points, near.normals, caster=caster, stats=stats,
-                             owner=owner):
-            flat = network[c.luminaire] * patches.n + patch[c.receiver]
+        for c in pair_chunks(scene, near.points, near.normals, selection=selection.tolist(),
+                             caster=caster, stats=stats, owner=owner, geometry=False):
+            flat = network[selection[c.luminaire]] * patches.n + patch[c.receiver]
             part.reshape(-1)[:] += np.bincount(flat, weights=c.light * near.weight[c.receiver],
                                                minlength=out.size)
         return part, stats.shadow_rays

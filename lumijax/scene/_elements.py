@@ -7,6 +7,7 @@ a designer edits and what the optimiser varies.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -88,11 +89,17 @@ class Luminaire:
     spectrum: Spectrum | None = None
     config_index: int = -1
 
-    @property
+    @functools.cached_property
     def rotation(self) -> Float[np.ndarray, "3 3"]:
-        """World rotation ``frame_rotation · Rz(pan) · Ry(−tilt) · Rz(spin)``."""
-        r = aim_rotation(*np.radians([self.tilt, self.pan, self.spin]), xp=np)
-        return self.frame_rotation @ r
+        """World rotation ``frame_rotation · Rz(pan) · Ry(−tilt) · Rz(spin)`` (read-only).
+
+        Computed once per luminaire (a frozen record: a new aim is a new luminaire), since the
+        direct light asks for it once per luminaire and chunk of receivers: 3,000 luminaires
+        × hundreds of chunks at the courtyard's scale."""
+        r = self.frame_rotation @ aim_rotation(*np.radians([self.tilt, self.pan, self.spin]),
+                                               xp=np)
+        r.setflags(write=False)
+        return r
 
     @property
     def axis(self) -> Float[np.ndarray, "3"]:

@@ -172,6 +172,15 @@ class GlazedCaster(RayCaster):
                                dists=tfar.astype(np.float32), query="OCCLUDED")
         return (np.asarray(hit) >= 0) & ok
 
+    def occluded_along(self, origins, directions, lengths) -> Bool[np.ndarray, " rays"]:
+        """:meth:`occluded` of segments given by their unit directions and lengths (m): the
+        ends are made again, as the panes' tests start from them."""
+        return self.occluded(origins, origins + np.asarray(lengths)[:, None] * directions)
+
+    def transmission_along(self, origins, directions, lengths) -> Float[np.ndarray, " rays"]:
+        """:meth:`transmission` of segments given by their unit directions and lengths (m)."""
+        return self.transmission(origins, origins + np.asarray(lengths)[:, None] * directions)
+
     def pair_transmission(self, origins, targets) -> Float[np.ndarray, " rays"]:
         """:meth:`transmission` of a visibility ray between two patches, × (1 − τ(θ)) for an
         end that lies on a pane (a pane's own patch, dimensionless).

@@ -94,21 +94,42 @@ class RayCaster:
         if self._scene is None or n == 0:
             return out
         for s in range(0, n, _CHUNK):
-            o, t = origins[s : s + _CHUNK], targets[s : s + _CHUNK]
-            d = t - o
+            o = origins[s : s + _CHUNK]
+            d = targets[s : s + _CHUNK] - o
             length = np.linalg.norm(d, axis=1)
-            ok = length > 2 * self.epsilon
-            d = d / np.where(ok, length, 1.0)[:, None]
-            start = (o - self.origin) + self.epsilon * d
-            tfar = np.where(ok, length - 2 * self.epsilon, 0.0)
-            hit = self._scene.run(
-                start.astype(np.float32),
-                d.astype(np.float32),
-                dists=tfar.astype(np.float32),
-                query="OCCLUDED",
-            )
-            out[s : s + _CHUNK] = (np.asarray(hit) >= 0) & ok
+            d = d / np.where(length > 2 * self.epsilon, length, 1.0)[:, None]
+            out[s : s + _CHUNK] = self._occluded_along(o, d, length)
         return out
+
+    def occluded_along(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        directions: Float[np.ndarray, "rays 3"],
+        lengths: Float[np.ndarray, " rays"],
+    ) -> Bool[np.ndarray, " rays"]:
+        """:meth:`occluded` of the segments from ``origins`` along unit ``directions`` for
+        ``lengths`` (m): for a caller that has them already (the direct light's pairs), which
+        :meth:`occluded` would compute again from the two ends."""
+        n = len(lengths)
+        out = np.zeros(n, dtype=bool)
+        if self._scene is None or n == 0:
+            return out
+        for s in range(0, n, _CHUNK):
+            out[s : s + _CHUNK] = self._occluded_along(
+                origins[s : s + _CHUNK], directions[s : s + _CHUNK], lengths[s : s + _CHUNK])
+        return out
+
+    def _occluded_along(self, o, d, length) -> Bool[np.ndarray, " rays"]:
+        ok = length > 2 * self.epsilon
+        start = (o - self.origin) + self.epsilon * d
+        tfar = np.where(ok, length - 2 * self.epsilon, 0.0)
+        hit = self._scene.run(
+            start.astype(np.float32),
+            d.astype(np.float32),
+            dists=tfar.astype(np.float32),
+            query="OCCLUDED",
+        )
+        return (np.asarray(hit) >= 0) & ok
 
     #: Largest triangles × vertices the convexity test of :attr:`sees_everything` runs on
     #: (about a second of numpy at worst); beyond it the scene is treated as possibly occluding.
@@ -161,6 +182,16 @@ class RayCaster:
         """Fraction of light carried along each open segment: 0 blocked, 1 clear (every triangle
         is opaque here; ``lumijax.scene.GlazedCaster`` lets clear glass through)."""
         return np.where(self.occluded(origins, targets), 0.0, 1.0)
+
+    def transmission_along(
+        self,
+        origins: Float[np.ndarray, "rays 3"],
+        directions: Float[np.ndarray, "rays 3"],
+        lengths: Float[np.ndarray, " rays"],
+    ) -> Float[np.ndarray, " rays"]:
+        """:meth:`transmission` of the segments from ``origins`` along unit ``directions``
+        for ``lengths`` (m) (:meth:`occluded_along`)."""
+        return np.where(self.occluded_along(origins, directions, lengths), 0.0, 1.0)
 
     def pair_transmission(
         self,
