@@ -402,7 +402,7 @@ def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, resp
     a, b = tiles.offsets[t], tiles.offsets[t + 1]
     p, n = pts[a:b].T, nrm[a:b]  # (3, points)
     if banded:
-        si, pi, off = _banded_pairs(rows, p, pts[a:b], nrm[a:b], batch, axis, cos_support,
+        si, pi, off = _banded_pairs(rows, p, nrm[a:b], batch, axis, cos_support,
                                     response is None)
     else:
         s = batch.position[rows][:, :, None]  # (rows, 3, 1)
@@ -410,9 +410,9 @@ def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, resp
         ax = axis[rows][:, :, None]
         ok = _kept(d, (ax[:, 0], ax[:, 1], ax[:, 2]), cos_support[rows][:, None],
                    None if response is not None else (n[:, 0], n[:, 1], n[:, 2]))
-        dx, dy, dz = d
-        si, pi = np.nonzero(ok)
-        off = np.stack([dx[si, pi], dy[si, pi], dz[si, pi]], axis=1)
+        f = np.flatnonzero(ok)  # one flat index for the three gathers
+        si, pi = np.divmod(f, ok.shape[1])
+        off = np.stack([c.reshape(-1)[f] for c in d], axis=1)
     src = rows[si]
     rcv = tiles.order[a + pi]
     if response is not None:  # a sensor's own response decides which side it reads
@@ -422,9 +422,9 @@ def _tile_pairs(t, rows, tiles, pts, nrm, batch, axis, cos_support, banded, resp
     return src, rcv, *_geometry(off, n[pi], batch.scale[src], response, rcv)
 
 
-def _banded_pairs(rows, p, tile_pts, tile_nrm, batch, axis, cos_support, planes: bool):
+def _banded_pairs(rows, p, tile_nrm, batch, axis, cos_support, planes: bool):
     """:func:`_tile_pairs`'s tests for sub-source ``rows`` and one tile's points ``p``
-    (``(3, points)``; also ``(points, 3)`` as ``tile_pts``): the distance band first, once per
+    (``(3, points)``; normals ``(points, 3)``): the distance band first, once per
     luminaire (its rows share a centre), then the cone and facing tests on the pairs in a row's
     band only (a bar's 63 rows each hold a small part of a tile: 28 % of the dense block's
     pairs were kept on the courtyard). The same float64 operations as the dense block, in the
@@ -435,9 +435,13 @@ def _banded_pairs(rows, p, tile_pts, tile_nrm, batch, axis, cos_support, planes:
     rc = np.sqrt(cx * cx + cy * cy + cz * cz)[inv]  # = _kept's band distance, per row
     si, pi = np.nonzero((rc >= batch.lo[rows][:, None]) & (rc < batch.hi[rows][:, None]))
     src = rows[si]
-    off = tile_pts[pi] - batch.position[src]
-    ok = _kept(off.T, axis[src].T, cos_support[src], tile_nrm[pi].T if planes else None)
-    return si[ok], pi[ok], off[ok]
+    # coordinate by coordinate, each a contiguous gather (a (pairs, 3) array's transpose
+    # made every operation a strided one)
+    pos = batch.position
+    d = tuple(p[k][pi] - pos[src, k] for k in range(3))
+    k = np.flatnonzero(_kept(d, tuple(axis[src, k] for k in range(3)), cos_support[src],
+                             tuple(tile_nrm[pi, k] for k in range(3)) if planes else None))
+    return si[k], pi[k], np.stack([c[k] for c in d], axis=1)
 
 
 def _kept(d, axis, cos_support, normal):
@@ -488,12 +492,14 @@ def _owned_pairs(batch, owner, pts, nrm, axis, cos_support):
         rcv = np.repeat(receivers[r0:r1], count[r0:r1])
         start = np.repeat(np.cumsum(np.r_[0, count[r0:r1 - 1]]), count[r0:r1])
         src = order[np.repeat(row0[r0:r1], count[r0:r1]) + np.arange(len(rcv)) - start]
-        off = pts[rcv] - batch.position[src]
-        n = nrm[rcv]
-        # the band was chosen above by the same float64 operations: no second test of it
-        keep = _kept(off.T, axis[src].T, cos_support[src], n.T)
-        src, rcv, off = src[keep], rcv[keep], off[keep]
-        yield src, rcv, *_geometry(off, n[keep], batch.scale[src])
+        # coordinate by coordinate, each a contiguous gather (as _banded_pairs); the band was
+        # chosen above by the same float64 operations: no second test of it
+        d = tuple(pts[rcv, k] - batch.position[src, k] for k in range(3))
+        keep = np.flatnonzero(_kept(d, tuple(axis[src, k] for k in range(3)), cos_support[src],
+                                    tuple(nrm[rcv, k] for k in range(3))))
+        src, rcv = src[keep], rcv[keep]
+        yield src, rcv, *_geometry(np.stack([c[keep] for c in d], axis=1), nrm[rcv],
+                                   batch.scale[src])
         r0 = r1
 
 
