@@ -23,6 +23,7 @@ from typing import overload
 import numpy as np
 from jaxtyping import Float
 
+from .._memory import release_freed_memory
 from ..direct import DirectLighting, direct_illuminance
 from ..errors import LumijaxWarning
 from ..parallel import current_executor, threaded_map
@@ -280,6 +281,7 @@ def light_points(emission: Emission, points: np.ndarray, normals: np.ndarray,
     sources (unchanged results)."""
     t = time.perf_counter()
     d = _direct_in_chunks(emission.scene, points, normals, report)
+    release_freed_memory()  # what the threads freed, before the next stage allocates
     return DirectLight(points=d.by_network, shadow_rays=d.shadow_rays,
                        points_s=time.perf_counter() - t)
 
@@ -395,6 +397,7 @@ def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
         d_fine, patch = element_direct(emission.scene, meshed.fine, meshed.patches,
                                        progress=report)
         fine = d_fine.by_network
+    release_freed_memory()  # what the threads freed, before the solve allocates
     return dataclasses.replace(direct, patches=patch.by_network, fine=fine,
                                shadow_rays=direct.shadow_rays + patch.shadow_rays,
                                patches_s=time.perf_counter() - t)
