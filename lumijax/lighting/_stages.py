@@ -23,10 +23,9 @@ from typing import overload
 import numpy as np
 from jaxtyping import Float
 
-from .._memory import release_freed_memory
 from ..direct import DirectLighting, direct_illuminance
 from ..errors import LumijaxWarning
-from ..parallel import current_executor, threaded_map
+from ..parallel import current_executor, release_freed_memory, threaded_map
 from ..radiosity import (
     GatherOperator,
     PartitionSettings,

@@ -7,6 +7,8 @@
 * :func:`worker_cached` (``_shared.py``): what a worker builds once (an Embree scene).
 * :func:`shard_rows` (``_sharding.py``): the operator's rows over a JAX device mesh, so the
   unchanged ``jit`` solve runs on several devices (and hosts, through ``jax.distributed``).
+* :func:`release_freed_memory` (``_memory.py``): what threads freed, back to the system after
+  a threaded stage (glibc keeps it in their arenas, out of the next stage's reach).
 
 This layer sits below the physics (it imports nothing of lumijax but ``errors``); the
 per-batch functions live beside the loops they replace. docs/parallel.md.
@@ -26,6 +28,7 @@ from ._executor import (
     threaded_map as threaded_map,
     use_executor as use_executor,
 )
+from ._memory import release_freed_memory as release_freed_memory
 from ._sharding import (
     ROWS as ROWS,
     bytes_per_device as bytes_per_device,

@@ -9,7 +9,7 @@ import threading
 import numpy as np
 import pytest
 
-from lumijax._memory import release_freed_memory
+from lumijax.parallel import release_freed_memory
 
 glibc = pytest.mark.skipif(not sys.platform.startswith("linux")
                            or platform.libc_ver()[0] != "glibc", reason="glibc's malloc_trim")
