@@ -129,6 +129,36 @@ def _validate(photometric_type: str, h: np.ndarray, v: np.ndarray, cd: np.ndarra
         raise ValueError("Type C h_deg must run from 0 to 360 inclusive")
 
 
+#: Cephes' ``atanf`` (S. L. Moshier): atan(u) = u + u³ P(u²) on |u| ≤ tan(π/8), ~1 ulp in
+#: float32. P's coefficients, highest power first.
+_ATAN_P = (8.05374449538e-2, -1.38776856032e-1, 1.99777106478e-1, -3.33329491539e-1)
+
+
+def _atan2(y, x):
+    """``atan2(y, x)`` (radians). In float32 as plain arithmetic (octant reduction and Cephes'
+    polynomial): XLA's CPU backend computes ``atan2`` one element at a time, 21 ms a million
+    against 1 ms, and the photometry kernel takes two per pair; within 2.8·10⁻⁷ rad of the
+    exact value where XLA's own is within 2.5·10⁻⁷ (tested). Float64 keeps ``jnp.arctan2``.
+    Signed zeros as ``atan2``'s: ``(±0, −0) → ±π``."""
+    dt = jnp.result_type(y, x)
+    if dt != jnp.float32:
+        return jnp.arctan2(y, x)
+    ax, ay = jnp.abs(x), jnp.abs(y)
+    hi = jnp.maximum(ax, ay)
+    t = jnp.minimum(ax, ay) / jnp.where(hi > 0, hi, jnp.ones((), dt))  # in [0, 1]
+    big = t > np.float32(0.41421356237309503)  # tan(π/8)
+    u = jnp.where(big, (t - 1) / (t + 1), t)
+    z = u * u
+    poly = jnp.zeros((), dt)
+    for c in _ATAN_P:
+        poly = poly * z + np.float32(c)
+    a = poly * z * u + u
+    a = jnp.where(big, a + np.float32(np.pi / 4), a)
+    a = jnp.where(ay > ax, np.float32(np.pi / 2) - a, a)
+    a = jnp.where(jnp.signbit(x), np.float32(np.pi) - a, a)
+    return jnp.where(jnp.signbit(y), -a, a)
+
+
 def _safe_hypot_atan2(p, q):
     """``(sqrt(p² + q²), atan2(p, q))`` with finite gradients where ``p = q = 0``.
 
@@ -140,7 +170,7 @@ def _safe_hypot_atan2(p, q):
     tiny = jnp.sqrt(jnp.finfo(r2.dtype).tiny)
     degenerate = r2 <= tiny
     r = jnp.where(degenerate, 0.0, jnp.sqrt(jnp.where(degenerate, 1.0, r2)))
-    az = jnp.arctan2(jnp.where(degenerate, 0.0, p), jnp.where(degenerate, 1.0, q))
+    az = _atan2(jnp.where(degenerate, 0.0, p), jnp.where(degenerate, 1.0, q))
     return r, az
 
 
@@ -150,14 +180,14 @@ def _grid_coords(photometric_type: str, d):
     deg = 180.0 / math.pi
     if photometric_type == "C":
         r, c = _safe_hypot_atan2(y, x)
-        gamma = jnp.arctan2(r, -z)
+        gamma = _atan2(r, -z)
         return jnp.mod(c * deg, 360.0), gamma * deg
     if photometric_type == "B":  # d = (cos H sin V, sin H, −cos H cos V)
         r, vv = _safe_hypot_atan2(x, -z)
-        return jnp.arctan2(y, r) * deg, vv * deg
+        return _atan2(y, r) * deg, vv * deg
     # Type A: d = (sin V, cos V sin H, −cos V cos H)
     r, hh = _safe_hypot_atan2(y, -z)
-    return hh * deg, jnp.arctan2(x, r) * deg
+    return hh * deg, _atan2(x, r) * deg
 
 
 def _fraction(x, g0, g1):
