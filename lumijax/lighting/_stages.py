@@ -280,7 +280,7 @@ def light_points(emission: Emission, points: np.ndarray, normals: np.ndarray,
     sources (unchanged results)."""
     t = time.perf_counter()
     d = _direct_in_chunks(emission.scene, points, normals, report)
-    release_freed_memory()  # what the threads freed, before the next stage allocates
+    _release_after_threads(len(points))
     return DirectLight(points=d.by_network, shadow_rays=d.shadow_rays,
                        points_s=time.perf_counter() - t)
 
@@ -396,7 +396,7 @@ def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
         d_fine, patch = element_direct(emission.scene, meshed.fine, meshed.patches,
                                        progress=report)
         fine = d_fine.by_network
-    release_freed_memory()  # what the threads freed, before the solve allocates
+    _release_after_threads((meshed.fine or meshed.patches).n)
     return dataclasses.replace(direct, patches=patch.by_network, fine=fine,
                                shadow_rays=direct.shadow_rays + patch.shadow_rays,
                                patches_s=time.perf_counter() - t)
@@ -569,6 +569,16 @@ def _in_chunks(n: int, fn: Callable[[slice, Callable[[float], None]], object],
 
     report(0, n)
     return list(threaded_map(run, range(len(spans)), threads))
+
+
+def _release_after_threads(receivers: int) -> None:
+    """What the direct light's threads freed, back to the system before the next stage
+    allocates (:func:`~lumijax.parallel.release_freed_memory`): only where the receivers came
+    in chunks on threads. A small study's direct light runs on the main thread, whose freed
+    memory the next stage reuses, and pages handed back cost this VM 3-9 ms a MiB to fault in
+    again (benchmarks/RESULTS.md, "Session 27")."""
+    if receivers > POINT_CHUNK:
+        release_freed_memory()
 
 
 def _direct_in_chunks(scene: Scene, points, normals, report: Report) -> DirectLighting:
