@@ -7,9 +7,18 @@ falls like 1/d² across the patch and the centroid misjudges the flux: the offic
 illuminance −0.27 % low on average from that alone (docs/radiosity.md, "Direct light on a
 patch near a luminaire"). So for each luminaire, a patch near it takes that luminaire's light as the mean over
 n × n congruent pieces (midpoint grid, equal areas, so equal weights), n the least for which a
-piece's longest edge is at most :data:`PIECE_PER_DISTANCE` times the patch's clearance from
+piece's longest edge is at most :func:`piece_per_distance` times the patch's clearance from
 *that* luminaire, at most :data:`MOST_PER_EDGE`. Every other (luminaire, patch) pair keeps the
 centroid's value.
+
+The centroid rule errs by about ``(edge / clearance)² / 4`` of the patch's light under a point
+source at normal incidence (the 1/r² field's curvature: ``E ≈ E₀(1 − 1.5 ρ²/D²)`` averaged over
+a square of side h is ``E₀(1 − h²/4D²)``), and it errs the same way on every patch facing the
+source squarely — high where the field peaks, low where it flattens out towards a wall's edges;
+over a surface the total flux comes out too high. A study of a few thousand patches
+(:data:`~._operator.DENSE_PATCHES`, the studies whose solve is one dense block) pays nothing
+for the pieces and takes :data:`SMALL_PIECE_PER_DISTANCE`; a larger one, where every halving of
+the ratio quadruples the pairs, :data:`PIECE_PER_DISTANCE`.
 
 The pieces of a pair depend on that luminaire's position and the patch only, never on the
 other luminaires: a luminaire's light on the patches is the same in any scene that holds it
@@ -25,15 +34,22 @@ import numpy as np
 from jaxtyping import Float, Int
 
 from ..parallel import threaded_map
+from ._operator import DENSE_PATCHES
 from ._patches import Patches, subdivide_triangles
 
-__all__ = ["PIECE_PER_DISTANCE", "MOST_PER_EDGE", "NearSamples", "near_samples",
-           "near_light"]
+__all__ = ["PIECE_PER_DISTANCE", "SMALL_PIECE_PER_DISTANCE", "MOST_PER_EDGE",
+           "piece_per_distance", "NearSamples", "near_samples", "near_light"]
 
 #: A piece's longest edge over its patch's clearance from the luminaire (m / m). The centroid
 #: rule's flux error on the office's ceiling was +0.03 % at 1.35, −0.7 % at 1.9 and +8.3 % at
-#: 4.2 (docs/radiosity.md): 0.5 leaves it far below the solve's other errors.
+#: 4.2 (docs/radiosity.md): 0.5 leaves it far below the solve's other errors, for a large
+#: study (one patch's light off by at most ≈ 6 %, and by far less on the whole).
 PIECE_PER_DISTANCE = 0.5
+#: The ratio for a study of at most :data:`~._operator.DENSE_PATCHES` patches: one patch's
+#: light off by at most ≈ 1 %. The closed 4 m cube of ``benchmarks/small.py`` (1,728 patches of
+#: 0.33 m, 1.7 m from its lamp: ratio 0.28) read its floor +0.05 % (ρ 0.5) to +0.09 % (ρ 0.8) too
+#: bright on average from the centroid rule alone (docs/radiosity.md).
+SMALL_PIECE_PER_DISTANCE = 0.2
 #: At most this many pieces along an edge (n² samples a pair): a luminaire touching a surface
 #: would otherwise ask for unbounded n.
 MOST_PER_EDGE = 4
@@ -100,23 +116,32 @@ def _samples(patches: Patches, lum, pat, n) -> NearSamples:
     return NearSamples(lum, pat, n, owner, weight, points, normals)
 
 
+def piece_per_distance(n_patches: int) -> float:
+    """A piece's longest edge over its clearance from the luminaire (m / m) on a mesh of
+    ``n_patches``: :data:`SMALL_PIECE_PER_DISTANCE` up to :data:`~._operator.DENSE_PATCHES`
+    patches, :data:`PIECE_PER_DISTANCE` above. Every caller of one study passes the same
+    patches, so its direct light, its replaced luminaires and its aim model agree."""
+    return SMALL_PIECE_PER_DISTANCE if n_patches <= DENSE_PATCHES else PIECE_PER_DISTANCE
+
+
 def _near_pairs(patches: Patches, sources):
     """``(luminaire, patch, n)`` of the pairs with n ≥ 2."""
     empty = np.zeros(0, np.int64)
     if not len(sources) or not patches.n:
         return empty, empty, empty
+    ratio = piece_per_distance(patches.n)
     vertices = np.asarray(patches.vertices, np.float64)
     centroid = np.asarray(patches.centroid, np.float64)
     size = np.linalg.norm(vertices - np.roll(vertices, 1, axis=1), axis=2).max(axis=1)
     reach = np.linalg.norm(vertices - centroid[:, None], axis=2).max(axis=1)
-    # n ≥ 2 needs size > PIECE_PER_DISTANCE · (distance − reach)
-    radius = float((size / PIECE_PER_DISTANCE + reach).max())
+    # n ≥ 2 needs size > ratio · (distance − reach)
+    radius = float((size / ratio + reach).max())
     lum, pat = _within(sources, centroid, radius)
     if not len(lum):
         return empty, empty, empty
     clearance = np.linalg.norm(centroid[pat] - sources[lum], axis=1) - reach[pat]
     with np.errstate(divide="ignore", invalid="ignore"):
-        want = np.where(clearance > 0, np.ceil(size[pat] / (PIECE_PER_DISTANCE * clearance)),
+        want = np.where(clearance > 0, np.ceil(size[pat] / (ratio * clearance)),
                         MOST_PER_EDGE)
     n = np.clip(np.nan_to_num(want, nan=MOST_PER_EDGE), 1, MOST_PER_EDGE).astype(np.int64)
     keep = n >= 2

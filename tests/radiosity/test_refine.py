@@ -14,7 +14,7 @@ import pytest
 from helpers import box, lamp, material, photometry, rectangle, study_text, table
 
 import lumijax
-from lumijax.radiosity import edge_neighbours, mesh_patches, refine_patches
+from lumijax.radiosity import edge_neighbours, mesh_patches, near_samples, refine_patches
 from lumijax.radiosity._refine import _split4
 
 PHI = 4000.0  # lm
@@ -186,7 +186,9 @@ def test_edge_neighbours_across_t_junctions():
 
 def test_refine_setting_reaches_the_solve(write_study):
     """``[solver] refine`` through lumijax.compute: the solve runs on the refined patches, and
-    their direct light is the closed-form field at their centroids."""
+    their direct light is the closed-form field at their centroids (where the lamp is near
+    enough for the patch to take its mean over pieces instead, ``near_samples``, it is not
+    compared: a small study cuts the floor's coarse patches under the lamp)."""
     text = study_text(
         material("grey", 0.5), photometry("iso", "isotropic", PHI),
         rectangle([0, 0, 0], [4, 0, 0], [0, 4, 0], "grey"),
@@ -201,6 +203,8 @@ def test_refine_setting_reaches_the_solve(write_study):
     assert p.area.sum() == pytest.approx(p0.area.sum())
     floor = (p.normal[:, 2] > 0.99) & (p.centroid[:, 2] < 1e-9)
     assert p.area[floor].min() == pytest.approx(p0.area[0] / 16)
+    floor[near_samples(p, SOURCE[None]).patch] = False
+    assert floor.sum() > 300  # the refined shadow edge's patches among them
     assert np.allclose(res.lighting.coarse.patch_direct[0][floor], exact(p.centroid[floor]),
                        rtol=1e-4, atol=1e-6 * PHI)
 
