@@ -37,6 +37,7 @@ from ..radiosity import (
     mesh_patches,
     near_light,
     partition,
+    patch_slopes,
     refine_patches,
 )
 from ..radiosity._estimate import bound_operator_memory, check_before_meshing
@@ -602,12 +603,14 @@ def _direct_in_chunks(scene: Scene, points, normals, report: Report) -> DirectLi
 def _gather_in_chunks(points, normals, patches: Patches, caster, rays: int,
                       report: Report) -> GatherOperator:
     n = len(points)
+    # each ray reads its patch's radiosity linear across it (radiosity/_slopes.py)
+    slopes = patch_slopes(patches)
     if n <= POINT_CHUNK:
-        return build_gather(points, normals, patches, caster, rays=rays)
+        return build_gather(points, normals, patches, caster, rays=rays, slopes=slopes)
 
     def chunk(sl, tell):  # a seed per chunk: the same statistics, whatever the chunk count
         g = build_gather(points[sl], normals[sl], patches, caster, rays=rays,
-                         seed=sl.start // POINT_CHUNK)
+                         seed=sl.start // POINT_CHUNK, slopes=slopes)
         return dataclasses.replace(g, point=g.point + np.int32(sl.start))
 
     parts = _in_chunks(n, chunk, report)

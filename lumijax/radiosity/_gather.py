@@ -23,6 +23,7 @@ from jaxtyping import Array, Float, Int
 
 from .. import _executables
 from .._jit_cache import to_device
+from ._slopes import PatchSlopes
 
 __all__ = ["GatherOperator", "build_gather", "build_sensor_gather"]
 
@@ -122,6 +123,7 @@ def build_gather(
     rays: int = 512,
     seed: int = 0,
     chunk: int = 4096,
+    slopes: PatchSlopes | None = None,
 ) -> GatherOperator:
     """Cast ``rays`` cosine-weighted rays from each point and record which patch each hits
     (exactly, by :class:`~lumijax.radiosity.PatchLocator`, where the caster's triangles are
@@ -139,6 +141,11 @@ def build_gather(
     rays
         Rays per point; the statistical error of a smooth field falls like 1/rays for this
         stratified set, about 1 % at 512.
+    slopes
+        :func:`~lumijax.radiosity.patch_slopes` of ``patches``: each ray reads the patch's
+        radiosity linear across it, ``B_i + g_i · (hit − c_i)``, folded into the links (which
+        then reach the hit patches' neighbours, some with negative weights; every point's
+        weights still sum to its coverage). None: constant over each patch.
     """
     points = np.asarray(points, np.float64)
     rng = np.random.default_rng(seed)
@@ -146,7 +153,7 @@ def build_gather(
     src_tri = np.asarray(patches.source_triangle)
     tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
     tri_normals[src_tri] = patches.normal
-    rows, cols, carry = [], [], []
+    rows, cols, carry, offsets = [], [], [], []
     locator = _locator(patches, caster)
     glazed = getattr(caster, "glazing_key", None) is not None
     for s in range(0, len(points), chunk):
@@ -175,18 +182,66 @@ def build_gather(
         cols.append(patch)
         if glazed:
             carry.append(carried[hit])
+        if slopes is not None:
+            offsets.append(origins[hit] + dirs[hit] * dist[hit, None]
+                           - np.asarray(patches.centroid, np.float64)[patch])
     point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)
     patch_idx = np.concatenate(cols) if cols else np.zeros(0, np.int64)
     # merge repeated (point, patch) links: fewer gathers per product
     key = point_idx.astype(np.int64) * patches.n + patch_idx
-    uniq, counts = merged_links(key, np.concatenate(carry) if glazed and carry else None)
+    carried_all = np.concatenate(carry) if glazed and carry else None
+    if slopes is None:
+        uniq, counts = merged_links(key, carried_all)
+        weight = counts / rays
+    else:
+        each = np.ones(len(key)) if carried_all is None else carried_all
+        offset = np.concatenate(offsets) * each[:, None] if offsets else np.zeros((0, 3))
+        space = len(points) * patches.n
+        uniq, sums = _sums_by_key(key, [each, *offset.T], space)
+        uniq, weight = _with_slopes(uniq, sums[0] / rays, np.stack(sums[1:], axis=1) / rays,
+                                    slopes, space)
     return GatherOperator(
         n_points=len(points),
         n_patches=patches.n,
         point=(uniq // patches.n).astype(np.int32),
         patch=(uniq % patches.n).astype(np.int32),
-        weight=counts / rays,
+        weight=weight,
     )
+
+
+def _with_slopes(key, weight, moment, slopes: PatchSlopes, space: int):
+    """Links ``key`` (point · patches + patch) of ``weight`` with each link's first moment
+    ``moment`` (Σ over its rays of (hit − centroid) / rays, m) read through the patch's slope:
+    ``w B_i + moment · g_i`` with ``g_i = Σ coef B[col]``, merged into one set of links."""
+    n = slopes.n_patches
+    point, patch = key // n, key % n
+    count = np.diff(slopes.start)[patch]
+    link = np.repeat(np.arange(len(key)), count)
+    entry = np.repeat(slopes.start[patch] - (np.cumsum(count) - count), count) + np.arange(
+        int(count.sum()))
+    extra = np.einsum("ec,ec->e", moment[link], slopes.coef[entry])
+    uniq, (total,) = _sums_by_key(np.concatenate([key, point[link] * n + slopes.col[entry]]),
+                                  [np.concatenate([weight, extra])], space)
+    return uniq, total
+
+
+#: Keys (points × patches) up to which links are summed in a dense array, not by sorting.
+_DENSE_KEYS = 1 << 22
+
+
+def _sums_by_key(key, columns: list, space: int):
+    """The distinct keys (sorted) and each column's sum over each: by ``np.bincount`` over the
+    whole key space where it is small (a room's 100 points × 1,728 patches: no sort), else by
+    ``np.unique``."""
+    # float even with no links (numpy's bincount of empty weights is integer)
+    if space <= _DENSE_KEYS:
+        dense = [np.bincount(key, weights=c, minlength=space) for c in columns]
+        uniq = np.flatnonzero(np.bincount(key, minlength=space))
+        return uniq, [d[uniq].astype(np.float64, copy=False) for d in dense]
+    uniq, inverse = np.unique(key, return_inverse=True)
+    return uniq, [np.bincount(inverse, weights=c, minlength=len(uniq)).astype(np.float64,
+                                                                            copy=False)
+                  for c in columns]
 
 
 def merged_links(key: Int[np.ndarray, " hits"],
