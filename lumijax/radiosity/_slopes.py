@@ -89,8 +89,9 @@ def patch_slopes(patches: Patches) -> PatchSlopes:
     w = a[:, None] * t1[i] + b[:, None] * t2[i]
     own = np.stack([-np.bincount(i, weights=w[:, k], minlength=n) for k in range(3)], axis=1)
     rows = np.concatenate([i, np.arange(n)])
-    order = np.argsort(rows, kind="stable")
-    col = np.concatenate([j, np.arange(n)])[order]
+    col = np.concatenate([j, np.arange(n)])
+    order = np.lexsort((col, rows))  # by row, then column: the same map however found
+    col = col[order]
     coef = np.concatenate([w, own])[order]
     keep = np.any(coef != 0.0, axis=1)
     rows, col, coef = rows[order][keep], col[keep], coef[keep]

@@ -92,3 +92,20 @@ def test_a_point_near_a_wall_reads_its_linear_radiosity():
     assert err_l.max() < 0.001
     assert err_l.max() < 0.1 * err_c.max()
     np.testing.assert_allclose(linear.coverage, constant.coverage, atol=1e-12)
+
+
+def test_a_large_mesh_finds_the_same_neighbours(monkeypatch):
+    """A small mesh compares every pair, a large one asks k-d trees by size class: the same
+    slopes either way, on patches of two sizes (a refined corner)."""
+    import lumijax.radiosity._slopes as sl
+
+    small = mesh_patches(WALL + [4.0, 0.0, 0.0], patch_size=0.12).vertices  # 0.12 m triangles
+    tri = np.concatenate([FLOOR, WALL[:, :, [1, 0, 2]][:, ::-1], small])
+    mesh = mesh_patches(tri, np.r_[0, 0, 1, 1, np.full(len(small), 2)], patch_size=0.5)
+    assert mesh.diameter.max() > 3 * mesh.diameter.min()
+    brute = sl.patch_slopes(mesh)
+    monkeypatch.setattr(sl, "_BRUTE_FORCE_PAIRS", 0)
+    tree = sl.patch_slopes(mesh)
+    np.testing.assert_array_equal(brute.start, tree.start)
+    np.testing.assert_array_equal(brute.col, tree.col)
+    np.testing.assert_allclose(brute.coef, tree.coef, rtol=1e-12, atol=1e-12)
