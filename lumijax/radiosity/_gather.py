@@ -143,9 +143,10 @@ def build_gather(
         stratified set, about 1 % at 512.
     slopes
         :func:`~lumijax.radiosity.patch_slopes` of ``patches``: each ray reads the patch's
-        radiosity linear across it, ``B_i + g_i · (hit − c_i)``, folded into the links (which
-        then reach the hit patches' neighbours, some with negative weights; every point's
-        weights still sum to its coverage). None: constant over each patch.
+        radiosity linear across it, ``B_i + g_i · (hit − c_i)``, where the patch lies within
+        :data:`SLOPE_DISTANCE` of its longest edge from the point, folded into the links
+        (which then reach those patches' neighbours, some with negative weights; every
+        point's weights still sum to its coverage). None: constant over each patch.
     """
     points = np.asarray(points, np.float64)
     rng = np.random.default_rng(seed)

@@ -9,12 +9,12 @@ patch, with the patch's own mean kept (``g_i · (y − c_i)`` averages to 0 over
 flux each patch sends is unchanged, and a point that sees the whole patch evenly reads its
 mean as before).
 
-``g_i`` is the least-squares gradient of the neighbours' means: the patches of the same
+``g_i`` is the least-squares gradient of the neighbours' means — the patches of the same
 material in the same plane whose centroids lie within :data:`REACH` of ``i``'s longest edge
-(its edge neighbours on a regular mesh), ``g_i = argmin Σ_j (B_j − B_i − g · (c_j − c_i))²`` over ``g`` in the plane. That
-is linear in B — ``g_i = Σ_j w_ij (B_j − B_i)`` with weights of the geometry alone — so the
-gather stays one fixed sparse map, every network superposes exactly, and gradients flow as
-before. A patch with fewer than two neighbours spanning the plane keeps a constant B. No
+(its edge neighbours on a regular mesh) — over ``g`` in the plane:
+``g_i = argmin Σ_j (B_j − B_i − g · (c_j − c_i))²``. That is linear in B, ``g_i = Σ_j w_ij
+(B_j − B_i)`` with weights of the geometry alone, so the gather stays one fixed sparse map,
+every network superposes exactly, and gradients flow as before. A patch with fewer than two neighbours spanning the plane keeps a constant B. No
 limiter: a limiter would make the map depend on B (docs/radiosity.md, "The gather's linear
 radiosity").
 """
@@ -137,8 +137,8 @@ def _neighbours(centroid, reach, normal, material):
     # same plane: parallel normals and the offset in the plane (to the coordinates' rounding,
     # relative to the patch: a room at 10⁷ m keeps its digits in the differences)
     flat = np.abs(np.einsum("pc,pc->p", d, normal[i])) <= 1e-6 * reach[i]
-    # the reach with a margin for rounding: a mesh can put neighbours at exactly REACH of
-    # the longest edge (legs 3 : 4 : 5), which must count at every scale and position
+    # the reach with a margin for rounding: a regular mesh can put a neighbour at exactly
+    # REACH of the longest edge, which must count alike at every scale and position
     keep = ((i != j) & (dist <= reach[i] * (1 + 1e-7)) & (material[i] == material[j])
             & (np.einsum("pc,pc->p", normal[i], normal[j]) > 1.0 - 1e-9) & flat)
     return i[keep].astype(np.int64), j[keep].astype(np.int64)
