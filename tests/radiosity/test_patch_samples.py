@@ -87,7 +87,8 @@ def test_far_patches_keep_their_centroids():
     far = near_samples(patches, np.array([[50.0, 50.0, 20.0]]))
     assert len(far.patch) == 0 and len(far.points) == 0
 
-    # in a corner: a small study's pieces reach 1.2 m (SMALL_PIECE_PER_DISTANCE), not the far one
+    # in a corner: a small study cuts patches up to ~1.2 m away (SMALL_PIECE_PER_DISTANCE),
+    # so the far corner of the floor keeps its centroids
     near = near_samples(patches, np.array([[0.1, 0.1, 0.01]]))
     assert near.per_edge.max() == MOST_PER_EDGE and near.per_edge.min() == 2
     assert len(np.unique(near.patch)) == len(near.patch) < patches.n
