@@ -155,6 +155,9 @@ def build_gather(
     tri_normals = np.zeros((int(src_tri.max()) + 1 if len(src_tri) else 0, 3))
     tri_normals[src_tri] = patches.normal
     rows, cols, carry, offsets = [], [], [], []
+    if slopes is not None:  # once, not per chunk: a million patches' edges at LoD 3
+        centroid = np.asarray(patches.centroid, np.float64)
+        near_reach = SLOPE_DISTANCE * np.asarray(patches.diameter)
     locator = _locator(patches, caster)
     glazed = getattr(caster, "glazing_key", None) is not None
     for s in range(0, len(points), chunk):
@@ -187,9 +190,8 @@ def build_gather(
             # only where the patch is near: seen from farther than a few of its sizes, a
             # patch is seen evenly and its slope changes the reading to second order only,
             # while every slope read adds links (an open court's rays meet each far patch once)
-            offset = (origins[hit] + dirs[hit] * dist[hit, None]
-                      - np.asarray(patches.centroid, np.float64)[patch])
-            far = dist[hit] > SLOPE_DISTANCE * np.asarray(patches.diameter)[patch]
+            offset = origins[hit] + dirs[hit] * dist[hit, None] - centroid[patch]
+            far = dist[hit] > near_reach[patch]
             offset[far] = 0.0
             offsets.append(offset)
     point_idx = np.concatenate(rows) if rows else np.zeros(0, np.int64)

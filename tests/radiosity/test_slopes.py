@@ -109,3 +109,25 @@ def test_a_large_mesh_finds_the_same_neighbours(monkeypatch):
     np.testing.assert_array_equal(brute.start, tree.start)
     np.testing.assert_array_equal(brute.col, tree.col)
     np.testing.assert_allclose(brute.coef, tree.coef, rtol=1e-12, atol=1e-12)
+
+
+def test_a_far_point_reads_each_patch_constant():
+    """Seen from farther than SLOPE_DISTANCE of its edges, a patch's slope is not read: the
+    linear gather's links are the constant gather's, weight for weight; moved within reach,
+    the same point's links change."""
+    from lumijax.radiosity._gather import SLOPE_DISTANCE
+
+    patches = mesh_patches(WALL, patch_size=0.5)
+    caster = RayCaster(WALL)
+    slopes = patch_slopes(patches)
+    normals = np.array([[-1.0, 0.0, 0.0]])
+    far = np.array([[SLOPE_DISTANCE * patches.diameter.max() + 0.5, 2.0, 1.5]])
+    constant = build_gather(far, normals, patches, caster, rays=4096)
+    linear = build_gather(far, normals, patches, caster, rays=4096, slopes=slopes)
+    assert len(constant.weight) > 0
+    np.testing.assert_array_equal(linear.patch, constant.patch)
+    np.testing.assert_allclose(linear.weight, constant.weight, rtol=1e-12)
+    near = np.array([[1.0, 2.0, 1.5]])
+    moved = build_gather(near, normals, patches, caster, rays=4096, slopes=slopes)
+    plain = build_gather(near, normals, patches, caster, rays=4096)
+    assert len(moved.weight) != len(plain.weight) or not np.allclose(moved.weight, plain.weight)
