@@ -32,15 +32,18 @@ geometry and points (pyradiance), timed the same way (the lamp a 2 cm sphere of 
 References (independent of both programs):
 
 * convex rooms (cube, office): an exact-kernel radiosity written here in numpy — every face cut
-  into squares of ``--ref-size`` m, point-to-polygon form factors in closed form (Lambert's
-  contour formula, no visibility needed in a convex room), 3 × 3 Gauss points on the receiving
-  square, a dense solve; the point irradiance is the closed-form direct light plus what the
-  squares send it, each square's B read linearly across it (the least-squares gradient of its
-  face's neighbouring squares, its mean kept; every square summed as 4 × 4 sub-squares with the
-  exact point-to-square factor): a constant B per square misjudged the points 0.2 m from the
-  walls (at 0.16 m squares 0.02 % RMS from the linear reading, which converges ~3× faster in
-  the square size). Its own error is printed: the area-mean irradiance against the closed
-  form Φ/(S(1 − ρ)) (the validation study's check) and the change from a mesh 1.6× coarser;
+  into squares (``Case.ref_size``: the cubes 0.05 m, the office 0.2 m; ``--ref-size``),
+  point-to-polygon form factors in closed form (Lambert's contour formula, no visibility
+  needed in a convex room), 3 × 3 Gauss points on the receiving square, a dense solve with one
+  unknown per orbit of squares under the room's symmetries (the cube's 48: 820 orbits of
+  38,400 squares); the point irradiance is the closed-form direct light plus what the squares
+  send it, each square's B read linearly across it (the least-squares gradient of its face's
+  neighbouring squares, its mean kept; every square summed as sub-squares of ≤ 0.0125 m with
+  the exact point-to-square factor). The cube ρ 0.5 at 0.25 / 0.2 / 0.16 / 0.1 / 0.08 m lies
+  0.0150 / 0.0101 / 0.0067 / 0.0025 / 0.0010 % RMS from 0.05 m, close to h²: the 0.05 m
+  reference is within ≈ 0.001 %. Its own error is printed: the area-mean irradiance against
+  the closed form Φ/(S(1 − ρ)) (the validation study's check) and the change from a mesh 1.6×
+  coarser;
 * the furnished room (a table occludes): Radiance converged (``-ab 7 -aa 0.08 -ar 256 -ad 2048
   -as 512 -lw 1e-4``, the validation study's setting), which is slow (minutes).
 
@@ -53,6 +56,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import itertools
 import json
 import math
 import os
@@ -87,6 +91,7 @@ class Case:
     normals: np.ndarray
     obstacles: list = field(default_factory=list)  # (min, max) outward boxes
     solver: str = ""  # extra [solver] lines
+    ref_size: float = 0.2  # square size (m) of the numpy reference (convex rooms)
 
     @property
     def convex(self) -> bool:
@@ -105,11 +110,12 @@ def cases(smoke: bool) -> list[Case]:
     if smoke:
         p, n = grid_points((0, 0), (4, 4), 0.01, n=4)
         return [Case("smoke cube ρ=0.5", (4.0, 4.0, 4.0), 0.5, [((2, 2, 2), 10_000.0, "n")],
-                     p, n, solver="target_patches = 300\ngather_rays = 64")]
+                     p, n, solver="target_patches = 300\ngather_rays = 64", ref_size=0.8)]
     out = []
     p, n = grid_points((0, 0), (4, 4), 0.01)
     for rho in (0.2, 0.5, 0.8):
-        out.append(Case(f"cube{rho}", (4.0, 4.0, 4.0), rho, [((2, 2, 2), 10_000.0, "n")], p, n))
+        out.append(Case(f"cube{rho}", (4.0, 4.0, 4.0), rho, [((2, 2, 2), 10_000.0, "n")], p, n,
+                        ref_size=0.05))
     p, n = grid_points((0.5, 0.5), (4.5, 3.5), 0.8)
     out.append(Case("furnished", (5.0, 4.0, 3.0), 0.5, [((2.2, 2.0, 2.5), 5000.0, "n")], p, n,
                     obstacles=[((1.6, 1.2, 0.70), (3.4, 2.4, 0.75))]))
@@ -267,11 +273,13 @@ def box_squares(room, size: float):
     return np.asarray(corners), np.asarray(normals), np.asarray(areas)
 
 
-def point_to_squares(x, n, corners, chunk: int = 256) -> np.ndarray:
+def point_to_squares(x, n, corners, chunk: int = 0) -> np.ndarray:
     """Form factor from the differential areas (x, n) (S, 3) to every polygon (P, 4, 3), in
     closed form (Lambert): F = −Σ_k γ_k n·(r_k × r_k+1)/|r_k × r_k+1| / 2π for corners
-    counter-clockwise about the polygon's normal; a polygon behind the point's plane comes out
-    negative and is clipped to 0 (a convex room: nothing is partly behind). (S, P)."""
+    counter-clockwise about the polygon's normal (γ_k by ``atan2``, exact at the small angles
+    of a far square); a polygon behind the point's plane comes out negative and is clipped to
+    0 (a convex room: nothing is partly behind). (S, P)."""
+    chunk = chunk or max(1, 2 ** 19 // max(1, len(corners)))
     out = np.empty((len(x), len(corners)))
     for s in range(0, len(x), chunk):
         r = corners[None] - x[s:s + chunk, None, None]  # (s, P, 4, 3)
@@ -279,7 +287,7 @@ def point_to_squares(x, n, corners, chunk: int = 256) -> np.ndarray:
         r1 = np.roll(r, -1, axis=2)
         c = np.cross(r, r1)
         cn = np.linalg.norm(c, axis=-1)
-        gamma = np.arccos(np.clip(np.sum(r * r1, axis=-1), -1.0, 1.0))
+        gamma = np.arctan2(cn, np.sum(r * r1, axis=-1))
         dot = np.einsum("spkc,sc->spk", c, n[s:s + chunk]) / np.where(cn > 0, cn, 1.0)
         out[s:s + chunk] = np.clip(-np.sum(gamma * dot, axis=-1) / (2 * np.pi), 0.0, None)
     return out
@@ -297,72 +305,127 @@ def direct(case: Case, x, n) -> np.ndarray:
     return e
 
 
+def symmetries(case: Case) -> tuple:
+    """The signed permutations about the room's centre that map the room and its lamps (with
+    their flux) onto themselves: 48 for the cube with its lamp at the centre, 4 for the office
+    (its rows mirror in x and y). Each is a 3 × 3 matrix acting on offsets from the centre;
+    the radiosity (every dimmer at 1) is the same on every square of an orbit."""
+    room = np.asarray(case.room, float)
+    centre = room / 2
+
+    def lamps(s):
+        return {tuple(np.round([*((np.asarray(p) - centre) @ s.T + centre), f], 9))
+                for p, f, _ in case.lamps}
+
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            s = np.zeros((3, 3))
+            s[range(3), perm] = signs
+            if np.allclose(np.abs(s) @ room, room) and lamps(s) == lamps(np.eye(3)):
+                out.append(s)
+    return tuple(out)
+
+
 @functools.lru_cache(maxsize=4)
-def _squares_operator(room: tuple, size: float):
-    """The squares, their Gauss points and the form factors F (P, P) of a box (any ρ, lamps)."""
+def _orbit_operator(room: tuple, size: float, group: tuple):
+    """The squares of a box, their orbits under ``group`` (flattened 3 × 3 matrices), Gauss
+    points on one square of each orbit and the orbit-summed form factors K (R, R): K[o, o']
+    = Σ over the squares j of orbit o' of F(representative of o → j). Any ρ and lamps with
+    this symmetry share it."""
     corners, normals, areas = box_squares(room, size)
+    centre, c = np.asarray(room, float) / 2, corners.mean(axis=1)
+    index = {tuple(k): i for i, k in enumerate(np.round(c, 6))}
+    first = np.arange(len(c))
+    for flat in group:
+        image = np.round((c - centre) @ np.reshape(flat, (3, 3)).T + centre, 6)
+        first = np.minimum(first, [index[tuple(k)] for k in image])
+    reps, orbit = np.unique(first, return_inverse=True)
+    orbit = orbit.ravel()
     g, w = np.polynomial.legendre.leggauss(3)
     g, w = (g + 1) / 2, w / 2
-    a, b, d = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0]
+    a, b, d = (corners[reps, 0], corners[reps, 1] - corners[reps, 0],
+               corners[reps, 3] - corners[reps, 0])
     pts = (a[:, None, None] + g[None, :, None, None] * b[:, None, None]
-           + g[None, None, :, None] * d[:, None, None]).reshape(-1, 3)  # (P·9, 3)
+           + g[None, None, :, None] * d[:, None, None]).reshape(-1, 3)  # (R·9, 3)
     wts = np.outer(w, w).ravel()
-    nrm = np.repeat(normals, 9, axis=0)
-    f = (point_to_squares(pts, nrm, corners).reshape(len(areas), 9, -1)
-         * wts[None, :, None]).sum(axis=1)
-    return corners, areas, pts, nrm, wts, f
+    nrm = np.repeat(normals[reps], 9, axis=0)
+    f = (point_to_squares(pts, nrm, corners).reshape(len(reps), 9, -1)
+         * wts[None, :, None]).sum(axis=1)  # (R, P)
+    k = np.stack([np.bincount(orbit, weights=row, minlength=len(reps)) for row in f])
+    return corners, areas, orbit, pts, nrm, wts, k
 
 
 def square_slopes(corners, b) -> np.ndarray:
     """Each square's gradient of ``b`` (P, 3) in its face: least squares over the squares of
-    the same face whose centres lie within 1.5 squares (its 8 neighbours; fewer at the
-    face's edges)."""
+    the same face among its 8 neighbours on the face's grid (fewer at the face's edges)."""
     c = corners.mean(axis=1)
     nrm = np.cross(corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0])
     nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
-    side = np.linalg.norm(corners[:, 1] - corners[:, 0], axis=1)
     face = np.unique(np.round(np.c_[nrm, np.einsum("pc,pc->p", nrm, c)], 9), axis=0,
                      return_inverse=True)[1].ravel()
     g = np.zeros((len(b), 3))
     for f in np.unique(face):
         idx = np.flatnonzero(face == f)
-        d = c[idx, None] - c[None, idx]  # (k, k, 3): j's offset from i is −d[i, j]
-        near = np.linalg.norm(d, axis=2) < 1.5 * side[idx, None]
-        for a, i in enumerate(idx):
-            mine = near[a].copy()
-            mine[a] = False
-            g[i] = np.linalg.lstsq(-d[a, mine], b[idx[mine]] - b[i], rcond=None)[0]
+        du = corners[idx[0], 1] - corners[idx[0], 0]
+        dv = corners[idx[0], 3] - corners[idx[0], 0]
+        rel = c[idx] - corners[idx, 0].min(axis=0)
+        iu = np.round(rel @ du / (du @ du) - 0.5).astype(int)
+        iv = np.round(rel @ dv / (dv @ dv) - 0.5).astype(int)
+        grid = np.full((iu.max() + 1, iv.max() + 1), -1)
+        grid[iu, iv] = np.arange(len(idx))
+        normal, rhs = np.zeros((len(idx), 2, 2)), np.zeros((len(idx), 2))
+        for step in itertools.product((-1, 0, 1), repeat=2):
+            ju, jv = iu + step[0], iv + step[1]
+            ok = ((ju >= 0) & (ju < grid.shape[0]) & (jv >= 0) & (jv < grid.shape[1])
+                  & (step != (0, 0)))
+            normal[ok] += np.outer(step, step)
+            rhs[ok] += np.multiply(step, (b[idx][grid[ju[ok], jv[ok]]] - b[idx][ok])[:, None])
+        coef = np.linalg.solve(normal, rhs[..., None])[..., 0]  # per grid step in u and v
+        g[idx] = coef[:, :1] * du / (du @ du) + coef[:, 1:] * dv / (dv @ dv)
     return g
 
 
-def linear_gather(x, n, corners, b, m: int = 4) -> np.ndarray:
+def linear_gather(x, n, corners, b, finest: float = 0.0125) -> np.ndarray:
     """Irradiance (lx) at points (x, n) from squares of radiosity ``b`` read linearly across
-    each (``square_slopes``): every square as m × m sub-squares, each at the linear B of its
-    centre (exact for a linear B) times its exact point-to-square factor."""
+    each (``square_slopes``): every square as m × m sub-squares no wider than ``finest`` m,
+    each at the linear B of its centre (exact for a linear B) times its exact point-to-square
+    factor. On the cube's 0.1 m squares, 4 × 4 sub-squares read the points 0.019 % RMS away
+    from 8 × 8 (0.0125 m), and cutting only the squares near the points that fine (1/16 of
+    the distance, far squares read whole: constant) 0.0024 % away — the linear part of a far
+    square's light is small per square but of one sign over many."""
     c, g = corners.mean(axis=1), square_slopes(corners, b)
-    a, du, dv = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0]
+    side = np.linalg.norm(corners[:, 1] - corners[:, 0], axis=1)
+    cuts = np.ceil(side / finest - 1e-9).astype(int)
     e = np.zeros(len(x))
-    for i in range(m):
-        for j in range(m):
-            sub = np.stack([a + (i * du + j * dv) / m, a + ((i + 1) * du + j * dv) / m,
-                            a + ((i + 1) * du + (j + 1) * dv) / m,
-                            a + (i * du + (j + 1) * dv) / m], axis=1)
-            e += point_to_squares(x, n, sub) @ (b + np.einsum("pc,pc->p", g,
-                                                              sub.mean(axis=1) - c))
+    for m in np.unique(cuts):
+        sel = cuts == m
+        a, du, dv = (corners[sel, 0], corners[sel, 1] - corners[sel, 0],
+                     corners[sel, 3] - corners[sel, 0])
+        for i in range(m):
+            for j in range(m):
+                sub = np.stack([a + (i * du + j * dv) / m, a + ((i + 1) * du + j * dv) / m,
+                                a + ((i + 1) * du + (j + 1) * dv) / m,
+                                a + (i * du + (j + 1) * dv) / m], axis=1)
+                e += point_to_squares(x, n, sub) @ (
+                    b[sel] + np.einsum("pc,pc->p", g[sel], sub.mean(axis=1) - c[sel]))
     return e
 
 
 def reference(case: Case, size: float) -> dict:
-    """The exact-kernel radiosity of a convex room at square size ``size`` (m)."""
-    corners, areas, pts, nrm, wts, f = _squares_operator(tuple(case.room), size)
-    e0 = (direct(case, pts, nrm).reshape(len(areas), 9) * wts).sum(axis=1)
-    bvec = np.linalg.solve(np.eye(len(areas)) - case.rho * f, case.rho * e0)
-    e_patch = e0 + f @ bvec
+    """The exact-kernel radiosity of a convex room at square size ``size`` (m): one unknown
+    per orbit of squares under the room's symmetries (``symmetries``), the points read
+    linearly (``linear_gather``)."""
+    group = tuple(tuple(s.ravel()) for s in symmetries(case))
+    corners, areas, orbit, pts, nrm, wts, k = _orbit_operator(tuple(case.room), size, group)
+    e0 = (direct(case, pts, nrm).reshape(len(k), 9) * wts).sum(axis=1)
+    b_orbit = np.linalg.solve(np.eye(len(k)) - case.rho * k, case.rho * e0)
+    e_patch = (e0 + k @ b_orbit)[orbit]
     flux = sum(lamp[1] for lamp in case.lamps)
     s = float(areas.sum())
     e_pts = direct(case, case.points, case.normals) + linear_gather(
-        case.points, case.normals, corners, bvec)
-    return {"lux": e_pts, "squares": len(areas),
+        case.points, case.normals, corners, b_orbit[orbit])
+    return {"lux": e_pts, "squares": len(areas), "orbits": len(k), "symmetries": len(group),
             "mean_vs_closed_form": float(np.sum(areas * e_patch) / s
                                          / (flux / (s * (1 - case.rho))) - 1)}
 
@@ -374,7 +437,7 @@ def rms(x, ref) -> float:
     return float(np.sqrt(np.mean((np.asarray(x) / ref - 1) ** 2)))
 
 
-def run_case(case: Case, work: Path, smoke: bool, ref_size: float) -> dict:
+def run_case(case: Case, work: Path, smoke: bool, ref_size: float | None) -> dict:
     folder = work / case.name.replace(" ", "-").replace("=", "")
     shutil.rmtree(folder, ignore_errors=True)
     text = study_toml(case)
@@ -427,9 +490,12 @@ def run_case(case: Case, work: Path, smoke: bool, ref_size: float) -> dict:
         row["radiance_s"], lux_rad = float("nan"), np.full(len(lux), np.nan)
     # the reference
     if case.convex:
-        ref = reference(case, ref_size)
-        coarse = reference(case, ref_size * 1.6)
-        row["reference"] = (f"exact-kernel numpy, {ref['squares']} squares: area mean "
+        size = ref_size or case.ref_size
+        ref = reference(case, size)
+        coarse = reference(case, size * 1.6)
+        row["reference"] = (f"exact-kernel numpy, {ref['squares']} squares of {size} m "
+                            f"({ref['orbits']} orbits of {ref['symmetries']} symmetries): "
+                            "area mean "
                             f"{100 * ref['mean_vs_closed_form']:+.4f} % of Φ/(S(1−ρ)); "
                             f"{100 * rms(coarse['lux'], ref['lux']):.3f} % RMS from a 1.6× "
                             "coarser mesh")
@@ -442,7 +508,7 @@ def run_case(case: Case, work: Path, smoke: bool, ref_size: float) -> dict:
     return row
 
 
-def patch_sweep(chosen: list[Case], counts, ref_size: float, work: Path,
+def patch_sweep(chosen: list[Case], counts, ref_size: float | None, work: Path,
                 accuracies=(0.01,)) -> str:
     """Error against the reference of ``[solver] target_patches`` = each of ``counts`` (the
     default settings otherwise), and the a-posteriori estimate |E_N − E_N/2| beside it; then
@@ -463,7 +529,8 @@ def patch_sweep(chosen: list[Case], counts, ref_size: float, work: Path,
             res = lumijax.compute(lumijax.load_study(path))
             lux[key] = (res.grids["points"].illuminance_lux, res.counts.get("patches"))
         if case.convex:
-            ref, what = reference(case, ref_size)["lux"], f"numpy reference ({ref_size} m)"
+            size = ref_size or case.ref_size
+            ref, what = reference(case, size)["lux"], f"numpy reference ({size} m)"
         else:
             finest = str(max(counts))
             ref, what = lux[finest][0], f"lumijax at target_patches = {finest}"
@@ -526,7 +593,8 @@ def main(argv=None) -> int:
     ap.add_argument("--smoke", action="store_true", help="one tiny cube, coarse settings")
     ap.add_argument("--case", action="append", help="run only these cases (names)")
     ap.add_argument("--ref-size", type=float, default=None,
-                    help="square size (m) of the numpy reference (default 0.25; smoke 0.8)")
+                    help="square size (m) of the numpy reference (default: the cubes 0.05, "
+                    "the office 0.2, smoke 0.8)")
     ap.add_argument("--work", type=Path, default=None, help="keep the studies here")
     ap.add_argument("--patch-sweep", type=int, nargs="*", default=None, metavar="N",
                     help="accuracy only: error against the reference at these target_patches "
@@ -534,7 +602,7 @@ def main(argv=None) -> int:
     ap.add_argument("--accuracy", type=float, action="append", default=None,
                     help="with --patch-sweep: the rule's [solver] accuracy (default 0.01)")
     args = ap.parse_args(argv)
-    ref_size = args.ref_size or (0.8 if args.smoke else 0.25)
+    ref_size = args.ref_size
     chosen = [c for c in cases(args.smoke) if not args.case or c.name in args.case]
     work = args.work or Path(tempfile.mkdtemp(prefix="lumijax-small-"))
     print(textwrap.dedent(f"""\
