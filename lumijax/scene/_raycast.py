@@ -150,21 +150,37 @@ class RayCaster:
             known = self._sees_everything = self._convex_inside()
         return known
 
-    def _convex_inside(self) -> bool:
+    def sees_everything_from(self, points: Float[np.ndarray, "points 3"]) -> bool:
+        """:attr:`sees_everything`, and every one of ``points`` (m) lies in every triangle's
+        closed half-space as well (inside the convex room): then no segment from a point to
+        a point of a triangle is blocked either."""
+        if not self.sees_everything:
+            return False
+        if self.n_triangles == 0:
+            return True
+        n, off, tol = self._planes()
+        p = np.asarray(points, np.float64).reshape(-1, 3) - self.origin
+        return not any(np.any(p[s:s + 256] @ n.T - off < -tol) for s in range(0, len(p), 256))
+
+    def _planes(self):
+        """Every non-degenerate triangle's unit normal and offset about :attr:`origin`, and the
+        scene's length tolerance."""
         from ..kernels import length_tolerance
 
-        if self.glazing_key is not None or self.n_triangles == 0:
-            return self.n_triangles == 0
         tri = self._triangles - self.origin  # re-centred: site coordinates keep their digits
-        verts = np.unique(tri.reshape(-1, 3), axis=0)
-        if self.n_triangles * len(verts) > self.CONVEX_TEST_LIMIT:
-            return False
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         length = np.linalg.norm(n, axis=1)
-        tol = length_tolerance(self._triangles)
         planar = length > 0
         n = n[planar] / length[planar, None]
-        off = np.einsum("tc,tc->t", n, tri[planar, 0])
+        return n, np.einsum("tc,tc->t", n, tri[planar, 0]), length_tolerance(self._triangles)
+
+    def _convex_inside(self) -> bool:
+        if self.glazing_key is not None or self.n_triangles == 0:
+            return self.n_triangles == 0
+        verts = np.unique((self._triangles - self.origin).reshape(-1, 3), axis=0)
+        if self.n_triangles * len(verts) > self.CONVEX_TEST_LIMIT:
+            return False
+        n, off, tol = self._planes()
         for s in range(0, len(n), 256):  # a non-convex scene fails in its first chunks
             if np.any(verts @ n[s:s + 256].T - off[s:s + 256] < -tol):
                 return False
