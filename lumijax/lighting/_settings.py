@@ -60,6 +60,14 @@ class SolverSettings:
         """Rays per receiver of a gather onto ``receivers`` points (:func:`gather_rays_for`)."""
         return gather_rays_for(self.gather_rays, receivers)
 
+    def gathers_exactly(self, points: int, patches: int) -> bool:
+        """Whether the grids' gather is taken in closed form (``radiosity._exact_gather``):
+        ``gather_rays`` unset and points × patches within
+        :data:`~lumijax.radiosity.EXACT_GATHER_PAIRS`."""
+        from ..radiosity import EXACT_GATHER_PAIRS
+
+        return self.gather_rays is None and points * patches <= EXACT_GATHER_PAIRS
+
 
 #: Rays per receiver of the gather of inter-reflected light when ``[solver] gather_rays`` is
 #: not set: at least :data:`GATHER_RAYS`, and up to :data:`MOST_GATHER_RAYS` while the

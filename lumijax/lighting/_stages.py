@@ -31,6 +31,7 @@ from ..radiosity import (
     PartitionSettings,
     Patches,
     TransportOperator,
+    build_exact_gather,
     build_gather,
     build_operator,
     cached_operator,
@@ -414,12 +415,18 @@ def sample_spectra(scene: Scene, meshed: Meshed, settings: SolverSettings) -> Sa
 
 def cast_gather_rays(points: np.ndarray, normals: np.ndarray, meshed: Meshed, scene: Scene,
                      settings: SolverSettings, report: Report) -> GatherRays:
-    """The gather of inter-reflected light onto the calculation points (``gather_rays`` rays
-    each); above :data:`POINT_CHUNK` points in chunks (a seed per chunk: the same statistics,
-    not the same rays) that report ``(points done, points)``."""
+    """The gather of inter-reflected light onto the calculation points: in closed form for a
+    small grid of a small study (``SolverSettings.gathers_exactly``), else ``gather_rays``
+    rays each, above :data:`POINT_CHUNK` points in chunks (a seed per chunk: the same
+    statistics, not the same rays) that report ``(points done, points)``."""
     t = time.perf_counter()
-    gather = _gather_in_chunks(points, normals, meshed.patches, scene.raycaster,
-                               settings.gather_rays_for(len(points)), report)
+    patches = meshed.patches
+    if settings.gathers_exactly(len(points), patches.n):
+        gather = build_exact_gather(points, normals, patches, scene.raycaster,
+                                    slopes=patch_slopes(patches))
+    else:
+        gather = _gather_in_chunks(points, normals, patches, scene.raycaster,
+                                   settings.gather_rays_for(len(points)), report)
     return GatherRays(gather, time.perf_counter() - t)
 
 
@@ -471,7 +478,8 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
     _warn(shot, solve_stats, rays.gather, len(points))
     stats: dict = {"shadow_rays": direct.shadow_rays, "patches": meshed.patches.n,
                    "patch_size_m": meshed.patch_size_m,
-                   "gather_rays": settings.gather_rays_for(len(points))}
+                   "gather_rays": (0 if settings.gathers_exactly(len(points), meshed.patches.n)
+                                   else settings.gather_rays_for(len(points)))}
     if meshed.fine is not None:
         stats.update(fine_patches=meshed.fine.n, element_size_m=meshed.element_size_m)
     stats["operator_bytes_bound"] = transport.bytes_bound

@@ -17,6 +17,10 @@ from ._cache import (
     cached_sampled_operator as cached_sampled_operator,
     operator_key as operator_key,
 )
+from ._exact_gather import (
+    EXACT_GATHER_PAIRS as EXACT_GATHER_PAIRS,
+    build_exact_gather as build_exact_gather,
+)
 from ._gather import GatherOperator as GatherOperator, build_gather as build_gather
 from ._operator import (
     Bucket as Bucket,

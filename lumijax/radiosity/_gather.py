@@ -28,8 +28,10 @@ from ._slopes import PatchSlopes
 __all__ = ["GatherOperator", "build_gather", "build_sensor_gather"]
 
 #: (patches, links, points) a gather's product is padded up to (:meth:`GatherOperator.__call__`):
-#: small.py's rooms fall within it (its cube: 1,728 patches, 123,455 links, 100 points).
-ROOM_SHAPE = (4096, 1 << 17, 1024)
+#: small.py's rooms fall within it (its cube: 1,728 patches, 100 points, 172,800 links in
+#: closed form — every point to every patch — and 132,003 from 4,096 rays a point; its office
+#: 4,960 patches: one study above 4,096 runs its own shape).
+ROOM_SHAPE = (4096, 1 << 19, 1024)
 
 
 @dataclass(frozen=True)
@@ -51,7 +53,7 @@ class GatherOperator:
         """Illuminance (lx) at the points from patch radiosity ``b`` (any trailing axes).
 
         A room-sized product runs on shapes padded up to :data:`ROOM_SHAPE` (4,096 patches,
-        2¹⁷ links, 1,024 points; padding links weigh 0 and land on a point past the last), so
+        2¹⁹ links, 1,024 points; padding links weigh 0 and land on a point past the last), so
         every such study calls the one program the first compiled and stored (~0.1 s of a new
         study's run otherwise). An axis above its size runs as it is: padding there would
         cost copies and work on every call (up to 2× the product, a host copy of ``b``) for
