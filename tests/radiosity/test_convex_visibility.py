@@ -86,3 +86,18 @@ def test_glazed_caster_keeps_its_rays():
     tri = _box((0, 0, 0), (1, 1, 1), inward=True)
     glazed = GlazedCaster(tri, np.where(np.arange(len(tri)) < 2, 0.8, 0.0))
     assert not glazed.sees_everything
+
+
+def test_points_inside_the_convex_room_see_everything_and_points_outside_do_not():
+    """A segment from a point to a wall is unblocked when the point lies in every wall's
+    half-space (inside the room, or on its boundary); a point outside sees some walls
+    through others. The room at site coordinates keeps its answer."""
+    offset = np.array([3.1e5, 5.2e6, 40.0])
+    tri = _box((0, 0, 0), (4.0, 3.0, 2.5), inward=True) + offset
+    caster = RayCaster(tri)
+    inside = np.array([[2.0, 1.5, 0.8], [0.0, 0.0, 0.0], [4.0, 3.0, 2.5]]) + offset
+    assert caster.sees_everything_from(inside)
+    assert not caster.sees_everything_from(np.array([[2.0, 1.5, 3.0]]) + offset)
+    assert not caster.sees_everything_from(np.array([[-0.01, 1.5, 1.0]]) + offset)
+    table = _box((0.5, 0.5, 0.7), (1.5, 1.0, 0.75), inward=False) + offset
+    assert not RayCaster(np.concatenate([tri, table])).sees_everything_from(inside[:1])
