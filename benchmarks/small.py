@@ -497,7 +497,7 @@ def run_case(case: Case, work: Path, smoke: bool, ref_size: float | None) -> dic
                             f"({ref['orbits']} orbits of {ref['symmetries']} symmetries): "
                             "area mean "
                             f"{100 * ref['mean_vs_closed_form']:+.4f} % of Φ/(S(1−ρ)); "
-                            f"{100 * rms(coarse['lux'], ref['lux']):.3f} % RMS from a 1.6× "
+                            f"{100 * rms(coarse['lux'], ref['lux']):.4f} % RMS from a 1.6× "
                             "coarser mesh")
         ref_lux = ref["lux"]
     else:
@@ -567,7 +567,7 @@ def report(rows: list[dict]) -> str:
             f"{r['cold_s']:.1f} ({r['cold_s'] / rs:.2f}) | {r['warm_s']:.1f} "
             f"({rs / r['warm_s']:.2f}) | {r['moved_s']:.1f} ({rs / r['moved_s']:.2f}) | "
             f"{r['quick_s']:.1f} | {r['dimmer_s']:.2f} | "
-            f"{100 * r['lumijax_err']:.3f} % | "
+            f"{100 * r['lumijax_err']:.4f} % | "
             f"{100 * r['radiance_err']:.2f} % | {r['radiance_err'] / r['lumijax_err']:.1f} |")
     lines.append("")
     lines.append("Targets: cold ×R ≤ 1 with accuracy × ≥ 10; first ×R ≤ 3; R/warm ≥ 5; "
