@@ -16,13 +16,14 @@ For a grid of few points in a study of few patches (points × patches ≤
 Each part's first moment ``∫ (y − c_j) k dy`` comes with it, so every patch is read linearly
 across it through its slope (``_slopes.py``; the ray gather reads only the near ones), and
 the links are the same kind of fixed sparse map ``E = G B``. The view: none to test where
-the scene sees everything from the points (``RayCaster.sees_everything_from``: a convex room,
-every point inside); else one ray from the point to each quadrature point or sub-triangle centroid, carrying what
-a clear pane passes (``pair_transmission``).
+the scene sees everything from the points (``RayCaster.sees_everything_from``: a convex
+room, every point inside); else one ray from the point to each quadrature point or
+sub-triangle centroid, carrying what a clear pane passes (``pair_transmission``, which also
+weighs a pane's own patch by the light it does not pass, as the operator does).
 
 Measured on the 4 m cube of ``benchmarks/small.py`` (1,728 patches, 100 points; against its
 0.05 m numpy reference): RMS 0.0079 / 0.0155 % at ρ 0.2 / 0.5 with 4,096 rays, 0.0054 /
-0.0123 % with 65,536, 0.0034 / 0.0112 % here (docs/radiosity.md, "The gather in closed form").
+0.0123 % with 65,536, 0.0035 / 0.0111 % here (docs/radiosity.md, "The gather in closed form").
 """
 
 from __future__ import annotations
