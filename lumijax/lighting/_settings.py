@@ -60,13 +60,16 @@ class SolverSettings:
         """Rays per receiver of a gather onto ``receivers`` points (:func:`gather_rays_for`)."""
         return gather_rays_for(self.gather_rays, receivers)
 
-    def gathers_exactly(self, points: int, patches: int) -> bool:
+    def gathers_exactly(self, points: int, patches: int, view: bool = False) -> bool:
         """Whether the grids' gather is taken in closed form (``radiosity._exact_gather``):
         ``gather_rays`` unset and points × patches within
-        :data:`~lumijax.radiosity.EXACT_GATHER_PAIRS`."""
+        :data:`~lumijax.radiosity.EXACT_GATHER_PAIRS`, a quarter of it where the view
+        between points and patches must be tested (``view``: 7 rays a far pair, where the
+        ray gather casts about one)."""
         from ..radiosity import EXACT_GATHER_PAIRS
 
-        return self.gather_rays is None and points * patches <= EXACT_GATHER_PAIRS
+        limit = EXACT_GATHER_PAIRS // 4 if view else EXACT_GATHER_PAIRS
+        return self.gather_rays is None and points * patches <= limit
 
 
 #: Rays per receiver of the gather of inter-reflected light when ``[solver] gather_rays`` is

@@ -203,11 +203,13 @@ class Sampling:
 class GatherRays:
     """The rays cast from the calculation points: the patches → points gather operator.
 
-    ``seconds``: wall time (s) of casting them.
+    ``seconds``: wall time (s) of casting them; ``rays``: rays per point (0: the gather was
+    taken in closed form, ``radiosity.build_exact_gather``).
     """
 
     gather: GatherOperator
     seconds: float
+    rays: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -421,13 +423,16 @@ def cast_gather_rays(points: np.ndarray, normals: np.ndarray, meshed: Meshed, sc
     statistics, not the same rays) that report ``(points done, points)``."""
     t = time.perf_counter()
     patches = meshed.patches
-    if settings.gathers_exactly(len(points), patches.n):
+    n, m = len(points), patches.n
+    # the view test only for a grid small enough to be gathered so at all
+    if settings.gathers_exactly(n, m) and settings.gathers_exactly(
+            n, m, view=not scene.raycaster.sees_everything_from(points)):
         gather = build_exact_gather(points, normals, patches, scene.raycaster,
                                     slopes=patch_slopes(patches))
-    else:
-        gather = _gather_in_chunks(points, normals, patches, scene.raycaster,
-                                   settings.gather_rays_for(len(points)), report)
-    return GatherRays(gather, time.perf_counter() - t)
+        return GatherRays(gather, time.perf_counter() - t, 0)
+    rays = settings.gather_rays_for(len(points))
+    gather = _gather_in_chunks(points, normals, patches, scene.raycaster, rays, report)
+    return GatherRays(gather, time.perf_counter() - t, rays)
 
 
 def solve(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emission,
@@ -478,8 +483,7 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
     _warn(shot, solve_stats, rays.gather, len(points))
     stats: dict = {"shadow_rays": direct.shadow_rays, "patches": meshed.patches.n,
                    "patch_size_m": meshed.patch_size_m,
-                   "gather_rays": (0 if settings.gathers_exactly(len(points), meshed.patches.n)
-                                   else settings.gather_rays_for(len(points)))}
+                   "gather_rays": rays.rays}
     if meshed.fine is not None:
         stats.update(fine_patches=meshed.fine.n, element_size_m=meshed.element_size_m)
     stats["operator_bytes_bound"] = transport.bytes_bound

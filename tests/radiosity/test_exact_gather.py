@@ -122,3 +122,6 @@ def test_the_solver_gathers_small_grids_exactly_unless_rays_are_asked_for():
     assert s.gathers_exactly(100, 1728)
     assert not s.gathers_exactly(EXACT_GATHER_PAIRS // 1000 + 1, 1000)
     assert not SolverSettings(gather_rays=512).gathers_exactly(100, 1728)
+    # a scene that can hide patches from the points: a quarter of the pairs
+    assert s.gathers_exactly(100, EXACT_GATHER_PAIRS // 400, view=True)
+    assert not s.gathers_exactly(100, EXACT_GATHER_PAIRS // 400 + 1, view=True)
