@@ -277,12 +277,25 @@ def point_to_squares(x, n, corners, chunk: int = 0) -> np.ndarray:
     """Form factor from the differential areas (x, n) (S, 3) to every polygon (P, 4, 3), in
     closed form (Lambert): F = −Σ_k γ_k n·(r_k × r_k+1)/|r_k × r_k+1| / 2π for corners
     counter-clockwise about the polygon's normal (γ_k by ``atan2``, exact at the small angles
-    of a far square); a polygon behind the point's plane comes out negative and is clipped to
-    0 (a convex room: nothing is partly behind). (S, P)."""
+    of a far square); a polygon wholly behind the point's plane comes out negative and is
+    clipped to 0, one that the plane cuts is cut first (its corners behind moved along its
+    edges to the plane: a rectangle cut parallel to two of its sides, as a box's walls are by
+    the plane of points facing up or down; any other cut is refused). (S, P)."""
     chunk = chunk or max(1, 2 ** 19 // max(1, len(corners)))
     out = np.empty((len(x), len(corners)))
     for s in range(0, len(x), chunk):
         r = corners[None] - x[s:s + chunk, None, None]  # (s, P, 4, 3)
+        h = np.einsum("spkc,sc->spk", r, n[s:s + chunk])
+        behind = h < 0
+        cut = behind & (behind.sum(axis=-1, keepdims=True) < 4)
+        if cut.any():  # without the cut the part behind would count negative
+            ahead = np.roll(h, -1, axis=2) >= 0
+            h_to = np.where(ahead, np.roll(h, -1, axis=2), np.roll(h, 1, axis=2))
+            if np.any(cut & (h_to < 0)):
+                raise ValueError("a square cut obliquely by a point's plane")
+            r_to = np.where(ahead[..., None], np.roll(r, -1, axis=2), np.roll(r, 1, axis=2))
+            t = np.where(cut, h / np.where(cut, h - h_to, 1.0), 0.0)
+            r += t[..., None] * (r_to - r)
         r /= np.linalg.norm(r, axis=-1, keepdims=True)
         r1 = np.roll(r, -1, axis=2)
         c = np.cross(r, r1)
