@@ -45,11 +45,13 @@ EXACT_GATHER_PAIRS = 1 << 20
 
 #: A patch nearer than this many of its longest edges (centroid to point) is integrated in
 #: closed form over sub-triangles; the cube ρ 0.2 read 0.0040 / 0.0034 / 0.0031 % RMS at
-#: 1 / 1.5 / 3 (gathers of 0.32 / 0.40 / 0.50 s).
+#: 1 / 1.5 / 3 (gathers of 0.32 / 0.40 / 0.50 s; docs/radiosity.md, "The gather in closed
+#: form").
 NEAR_RATIO = 1.5
 
-#: Sub-triangles a side of a near patch is cut into (the linear reading's moment converges
-#: like the sub-triangles' size squared: 2 read the cube 0.0055 %, 4 read it 0.0029 %).
+#: Sub-triangles a side of a near patch is cut into (the moment converges like the pieces'
+#: size squared: every patch of the cube by the contour over 2 × 2 read it 0.0055 %, over
+#: 4 × 4 0.0029 %).
 NEAR_CUTS = 4
 
 #: Far pairs per numpy pass (bounds the (pairs, 7, 3) quadrature arrays to ≈ 25 MB).
