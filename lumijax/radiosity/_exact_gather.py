@@ -34,7 +34,7 @@ from jaxtyping import Float
 from ..kernels._tolerances import rounding_length
 from ._build import _CONTOUR_QUICK, _WHOLE, _contour_mean, _contour_start
 from ._gather import GatherOperator, _with_slopes
-from ._patches import Patches, _template
+from ._patches import Patches, subdivide_triangles
 from ._slopes import PatchSlopes
 
 __all__ = ["EXACT_GATHER_PAIRS", "build_exact_gather"]
@@ -86,12 +86,7 @@ def build_exact_gather(
     nx = nx / np.linalg.norm(nx, axis=1, keepdims=True)
     c, n, v = patches.centroid, patches.normal, patches.vertices
     tol = max(rounding_length(x), rounding_length(v)) if len(x) and patches.n else 0.0
-    # the point in front of the patch (surfaces are one-sided)...
-    ahead = x @ n.T - np.einsum("pc,pc->p", c, n)[None]  # (S, P), m
-    # ...and some corner of the patch in front of the point's plane
-    level = np.einsum("sc,sc->s", x, nx)[:, None]
-    corner = [nx @ v[:, k].T - level for k in range(3)]  # each corner's height, (S, P), m
-    pi, pj = np.nonzero((ahead > tol) & (np.maximum(np.maximum(*corner[:2]), corner[2]) > tol))
+    pi, pj = _facing(x, nx, patches, tol)
     view = None if caster is None or caster.sees_everything_from(x) else caster
     # a patch cut by the point's plane far away is seen at grazing angles, where the rule's
     # clipped cosine is as good as the contour's clipping; near, the contour clips exactly
@@ -116,14 +111,35 @@ def build_exact_gather(
                           patch=(key % max(patches.n, 1)).astype(np.int32), weight=weight)
 
 
+#: Points × patches per pass of the facing test (its (points, patches) arrays ≈ 40 MB).
+_FACING_CHUNK = 1 << 20
+
+
+def _facing(x, nx, patches: Patches, tol: float):
+    """``(point, patch)`` pairs where the point lies in front of the patch (surfaces are
+    one-sided) and some corner of the patch in front of the point's plane, by passes of
+    :data:`_FACING_CHUNK` pairs."""
+    c, n, v = patches.centroid, patches.normal, patches.vertices
+    offset = np.einsum("pc,pc->p", c, n)[None]
+    step = max(1, _FACING_CHUNK // max(patches.n, 1))
+    found = []
+    for s in range(0, len(x), step):
+        xs, ns = x[s : s + step], nx[s : s + step]
+        ahead = xs @ n.T - offset  # (S, P), m
+        level = np.einsum("sc,sc->s", xs, ns)[:, None]
+        corner = [ns @ v[:, k].T - level for k in range(3)]  # each corner's height, m
+        i, j = np.nonzero((ahead > tol) & (np.maximum(np.maximum(*corner[:2]), corner[2]) > tol))
+        found.append((i + s, j))
+    if not found:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate([f[0] for f in found]), np.concatenate([f[1] for f in found])
+
+
 def _near(x, nx, tri, centre, tol, view):
     """Factors and first moments (K,), (K, 3) of near pairs: the contour integral over
     :data:`NEAR_CUTS`² sub-triangles, each clipped to the point's front where it crosses the
     point's plane."""
-    t = _template(NEAR_CUTS)  # (S, 3, 2) barycentric (w1, w2) of each sub-triangle's corners
-    v0 = tri[:, None, None, 0]
-    sub = (v0 + t[None, ..., 0:1] * (tri[:, None, None, 1] - v0)
-           + t[None, ..., 1:2] * (tri[:, None, None, 2] - v0))  # (K, S, 3, 3)
+    sub = subdivide_triangles(tri, NEAR_CUTS)  # (K, S, 3, 3)
     k, s = sub.shape[:2]
     sub = sub.reshape(-1, 3, 3)
     q = np.repeat(x, s, axis=0)

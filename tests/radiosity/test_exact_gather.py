@@ -100,9 +100,10 @@ def test_a_plate_hides_half_the_square():
     assert np.all(patches.centroid[blocked.patch, 0] > 0)
 
 
-def test_a_point_in_a_closed_box_sees_all_of_it_and_nothing_behind():
+def test_a_point_in_a_closed_box_sees_all_of_it_and_nothing_behind(monkeypatch):
     """Inside a closed box (inward faces) a point's factors sum to 1; a point on the floor
-    facing down, or outside the box, sees nothing."""
+    facing down, or outside the box, sees nothing. The facing test run a point at a time
+    finds the same links (a consistency check of its passes)."""
     box = trimesh.creation.box(extents=(3.0, 2.0, 2.5))
     box.apply_translation([1.5, 1.0, 1.25])
     tri = np.ascontiguousarray(box.triangles[:, ::-1])  # inward
@@ -115,6 +116,13 @@ def test_a_point_in_a_closed_box_sees_all_of_it_and_nothing_behind():
     g = build_exact_gather(points, normals, patches, caster)
     np.testing.assert_allclose(g.coverage[:3], 1.0, atol=2e-4)
     np.testing.assert_allclose(g.coverage[3:], 0.0, atol=1e-12)
+    import lumijax.radiosity._exact_gather as eg
+
+    monkeypatch.setattr(eg, "_FACING_CHUNK", patches.n)
+    one = build_exact_gather(points, normals, patches, caster)
+    np.testing.assert_array_equal(one.point, g.point)
+    np.testing.assert_array_equal(one.patch, g.patch)
+    np.testing.assert_allclose(one.weight, g.weight, rtol=1e-12)
 
 
 def test_the_solver_gathers_small_grids_exactly_unless_rays_are_asked_for():
