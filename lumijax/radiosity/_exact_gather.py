@@ -45,8 +45,8 @@ EXACT_GATHER_PAIRS = 1 << 20
 
 #: A patch nearer than this many of its longest edges (centroid to point) is integrated in
 #: closed form over sub-triangles; the cube ρ 0.2 read 0.0040 / 0.0034 / 0.0031 % RMS at
-#: 1 / 1.5 / 3 (gathers of 0.32 / 0.40 / 0.50 s; docs/radiosity.md, "The gather in closed
-#: form").
+#: 1 / 1.5 / 3 (gathers of 0.32 / 0.40 / 0.50 s, contended; docs/radiosity.md, "The gather
+#: in closed form").
 NEAR_RATIO = 1.5
 
 #: Sub-triangles a side of a near patch is cut into (the moment converges like the pieces'
