@@ -297,7 +297,8 @@ def cone_planes(x, lo, hi) -> np.ndarray:
             p[c] = q[c] = sides[sc][c]
             m = np.cross(p - x, q - x)
             m *= np.sign(np.einsum("nc,nc->n", m, centre - x))[:, None]
-            planes.append(m / np.linalg.norm(m, axis=1, keepdims=True))
+            with np.errstate(invalid="ignore"):  # x on the edge's line: never a silhouette
+                planes.append(m / np.linalg.norm(m, axis=1, keepdims=True))
             on.append(front[b][sb] ^ front[c][sc])
     m, on = np.stack(planes, axis=1), np.stack(on, axis=1)
     if np.any(on.sum(axis=1) > 6):
