@@ -15,10 +15,10 @@ The centroid rule errs by about ``(edge / clearance)² / 4`` of the patch's ligh
 source at normal incidence (the 1/r² field's curvature: ``E ≈ E₀(1 − 1.5 ρ²/D²)`` averaged over
 a square of side h is ``E₀(1 − h²/4D²)``), and it errs the same way on every patch facing the
 source squarely — high where the field peaks, low where it flattens out towards a wall's edges;
-over a surface the total flux comes out too high. A study of a few thousand patches
-(:data:`~._operator.DENSE_PATCHES`, the studies whose solve is one dense block) pays nothing
-for the pieces and takes :data:`SMALL_PIECE_PER_DISTANCE`; a larger one, where every halving of
-the ratio quadruples the pairs, :data:`PIECE_PER_DISTANCE`.
+over a surface the total flux comes out too high, and under lamps hung near a ceiling too low
+(the centroids just outside the pieces' reach). A study of up to :data:`SMALL_STUDY_PATCHES`
+patches pays little for the pieces and takes :data:`SMALL_PIECE_PER_DISTANCE`; a larger one,
+where every halving of the ratio quadruples the pairs, :data:`PIECE_PER_DISTANCE`.
 
 The pieces of a pair depend on that luminaire's position and the patch only, never on the
 other luminaires: a luminaire's light on the patches is the same in any scene that holds it
@@ -34,10 +34,9 @@ import numpy as np
 from jaxtyping import Float, Int
 
 from ..parallel import threaded_map
-from ._operator import DENSE_PATCHES
 from ._patches import Patches, subdivide_triangles
 
-__all__ = ["PIECE_PER_DISTANCE", "SMALL_PIECE_PER_DISTANCE", "MOST_PER_EDGE",
+__all__ = ["PIECE_PER_DISTANCE", "SMALL_PIECE_PER_DISTANCE", "SMALL_STUDY_PATCHES", "MOST_PER_EDGE",
            "piece_per_distance", "NearSamples", "near_samples", "near_light"]
 
 #: A piece's longest edge over its patch's clearance from the luminaire (m / m). The centroid
@@ -45,11 +44,19 @@ __all__ = ["PIECE_PER_DISTANCE", "SMALL_PIECE_PER_DISTANCE", "MOST_PER_EDGE",
 #: 4.2 (docs/radiosity.md): 0.5 leaves it far below the solve's other errors, for a large
 #: study (one patch's light off by at most ≈ 6 %, and by far less on the whole).
 PIECE_PER_DISTANCE = 0.5
-#: The ratio for a study of at most :data:`~._operator.DENSE_PATCHES` patches: one patch's
+#: The ratio for a study of at most :data:`SMALL_STUDY_PATCHES` patches: one patch's
 #: light off by at most ≈ 1 %. The closed 4 m cube of ``benchmarks/small.py`` (1,728 patches of
 #: 0.33 m, 1.7 m from its lamp: ratio 0.28) read its floor +0.05 % (ρ 0.5) to +0.09 % (ρ 0.8) too
 #: bright on average from the centroid rule alone (docs/radiosity.md).
 SMALL_PIECE_PER_DISTANCE = 0.2
+#: The most patches a study may have to take :data:`SMALL_PIECE_PER_DISTANCE`. The office of
+#: ``benchmarks/small.py`` (4,960 patches, lamps 0.2 m under its ceiling) took 0.5 when the
+#: limit was the dense solve's 4,096: in that closed room its patches held 0.091 % too little
+#: of the lamps' flux, and its points read 0.086 % RMS (mean −0.086 %) from the converged
+#: reference; at 0.2, −0.005 % and 0.016 %, its patches' direct light 0.28 s in-process
+#: (docs/radiosity.md).
+#: The courtyard quarter (62,360 patches) stays at 0.5: 0.2 would make 4× its near pairs.
+SMALL_STUDY_PATCHES = 16_384
 #: At most this many pieces along an edge (n² samples a pair): a luminaire touching a surface
 #: would otherwise ask for unbounded n.
 MOST_PER_EDGE = 4
@@ -118,10 +125,10 @@ def _samples(patches: Patches, lum, pat, n) -> NearSamples:
 
 def piece_per_distance(n_patches: int) -> float:
     """A piece's longest edge over its clearance from the luminaire (m / m) on a mesh of
-    ``n_patches``: :data:`SMALL_PIECE_PER_DISTANCE` up to :data:`~._operator.DENSE_PATCHES`
+    ``n_patches``: :data:`SMALL_PIECE_PER_DISTANCE` up to :data:`SMALL_STUDY_PATCHES`
     patches, :data:`PIECE_PER_DISTANCE` above. Every caller of one study passes the same
     patches, so its direct light, its replaced luminaires and its aim model agree."""
-    return SMALL_PIECE_PER_DISTANCE if n_patches <= DENSE_PATCHES else PIECE_PER_DISTANCE
+    return SMALL_PIECE_PER_DISTANCE if n_patches <= SMALL_STUDY_PATCHES else PIECE_PER_DISTANCE
 
 
 def _near_pairs(patches: Patches, sources):
