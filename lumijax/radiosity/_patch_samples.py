@@ -54,9 +54,11 @@ SMALL_PIECE_PER_DISTANCE = 0.2
 #: limit was the dense solve's 4,096: in that closed room its patches held 0.091 % too little
 #: of the lamps' flux, and its points read 0.086 % RMS (mean −0.086 %) from the converged
 #: reference; at 0.2, −0.005 % and 0.016 %, its patches' direct light 0.28 s in-process
-#: (docs/radiosity.md).
-#: The courtyard quarter (62,360 patches) stays at 0.5: 0.2 would make 4× its near pairs.
-SMALL_STUDY_PATCHES = 16_384
+#: (docs/radiosity.md). Not higher: the courtyard of 8 bays a facade (7,264 patches, 620
+#: luminaires under its cornices) would make 9.6 M samples at 0.2 against 2.9 M at 0.5, and its
+#: aim model holds them all; what the pieces cost follows the luminaires near surfaces, not
+#: the patches alone (a budget of samples per study is the better rule, not built).
+SMALL_STUDY_PATCHES = 6_144
 #: At most this many pieces along an edge (n² samples a pair): a luminaire touching a surface
 #: would otherwise ask for unbounded n.
 MOST_PER_EDGE = 4
