@@ -112,7 +112,7 @@ def test_a_small_study_takes_the_mean_of_patches_far_from_the_lamp():
     """The closed 4 m cube of benchmarks/small.py: a floor of 288 patches (legs 0.33 m) 2 m
     under an isotropic source. Their centroids overstate the floor's flux by 0.11 % (each
     patch facing the lamp squarely errs the same way, ≈ (edge / distance)² / 4 at its peak);
-    a small study (≤ DENSE_PATCHES patches) cuts every patch of ratio > 0.2 in four, and the
+    a small study (≤ SMALL_STUDY_PATCHES patches) cuts every patch of ratio > 0.2 in four, and the
     flux is the closed form's to 0.03 %, every patch to 0.3 %."""
     tri = np.array([[[0, 0, 0], [4, 0, 0], [4, 4, 0]], [[0, 0, 0], [4, 4, 0], [0, 4, 0]]],
                    np.float64)
