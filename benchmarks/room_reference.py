@@ -83,6 +83,17 @@ def box_squares(room, size: float):
     return corners, np.concatenate(normals), areas
 
 
+def gauss_points(corners):
+    """3 × 3 Gauss–Legendre points on each parallelogram (P, 4, 3) (corners 0, 1, 3 span it):
+    points (P, 9, 3) and their weights (9,), summing to 1."""
+    g, w = np.polynomial.legendre.leggauss(3)
+    g, w = (g + 1) / 2, w / 2
+    o, du, dv = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0]
+    pts = (o[:, None, None] + g[None, :, None, None] * du[:, None, None]
+           + g[None, None, :, None] * dv[:, None, None]).reshape(-1, 9, 3)
+    return pts, np.outer(w, w).ravel()
+
+
 def point_to_squares(x, n, corners, chunk: int = 0) -> np.ndarray:
     """Form factor from the differential areas (x, n) (S, 3) to every polygon (P, 4, 3), in
     closed form (Lambert): F = −Σ_k γ_k n·(r_k × r_k+1)/|r_k × r_k+1| / 2π for corners
@@ -182,13 +193,8 @@ def _orbit_operator(room: tuple, size: float, group: tuple):
         first = np.minimum(first, [index[tuple(k)] for k in image])
     reps, orbit = np.unique(first, return_inverse=True)
     orbit = orbit.ravel()
-    g, w = np.polynomial.legendre.leggauss(3)
-    g, w = (g + 1) / 2, w / 2
-    a, b, d = (corners[reps, 0], corners[reps, 1] - corners[reps, 0],
-               corners[reps, 3] - corners[reps, 0])
-    pts = (a[:, None, None] + g[None, :, None, None] * b[:, None, None]
-           + g[None, None, :, None] * d[:, None, None]).reshape(-1, 3)  # (R·9, 3)
-    wts = np.outer(w, w).ravel()
+    pts, wts = gauss_points(corners[reps])
+    pts = pts.reshape(-1, 3)  # (R·9, 3)
     nrm = np.repeat(normals[reps], 9, axis=0)
     f = (point_to_squares(pts, nrm, corners).reshape(len(reps), 9, -1)
          * wts[None, :, None]).sum(axis=1)  # (R, P)
@@ -442,12 +448,7 @@ def occluded_reference(case, size: float, chunk: int = 96) -> dict:
                        np.array(list(itertools.product(*zip(*box)))))
     if np.any(hidden - np.einsum("pc,pc->p", case.normals, case.points)[:, None] > 0):
         raise ValueError("a point sees the box: the reference's gather has no visibility")
-    g, w = np.polynomial.legendre.leggauss(3)
-    g, w = (g + 1) / 2, w / 2
-    wts = np.outer(w, w).ravel()
-    o, du, dv = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0]
-    pts = (o[:, None, None] + g[None, :, None, None] * du[:, None, None]
-           + g[None, None, :, None] * dv[:, None, None]).reshape(-1, 9, 3)
+    pts, wts = gauss_points(corners)
     k = np.empty((len(corners), len(corners)))
     closure = 0.0
     for s in range(0, len(corners), chunk):

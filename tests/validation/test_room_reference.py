@@ -80,10 +80,7 @@ def test_a_furnished_room_s_factors_close(rr):
     counted +0.9)."""
     case = SimpleNamespace(room=(3.0, 2.0, 2.5), obstacles=[((0.8, 0.6, 0.7), (2.0, 1.4, 0.75))])
     corners, normals, _, on_box, grids, box = rr._scene_squares(case, 0.5)
-    g = (np.polynomial.legendre.leggauss(3)[0] + 1) / 2
-    o, du, dv = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0]
-    pts = (o[:, None, None] + g[None, :, None, None] * du[:, None, None]
-           + g[None, None, :, None] * dv[:, None, None]).reshape(-1, 3)
+    pts = rr.gauss_points(corners)[0].reshape(-1, 3)
     nrm = np.repeat(normals, 9, axis=0)
     f = rr.point_to_squares(pts, nrm, corners)
     room = ~np.repeat(on_box, 9)
