@@ -171,22 +171,34 @@ def main(argv=None) -> None:
                 f"per patch; {i['rays']:,} rays ({i['ray_time_s']:.0f} s in Embree, build "
                 f"{i['rays_per_s'] / 1e6:.2f} M rays/s)")
 
-    transport = stage(
-        "memory bound + partition + operator build",
-        lambda: stg.build_transport(sc, meshed, settings),
-        _sampled_note if args.transport == "sampled" else
-        lambda tr: f"bound {tr.bound_s:.1f} s, partition {tr.partition_s:.1f} s; "
-                   f"{tr.operator.nbytes / 2**30:.2f} GiB stored "
-                   f"({tr.operator.lowrank_nbytes / 2**30:.2f} low rank); "
-                   f"{tr.operator.info['near_pairs']:,} near patch pairs, "
-                   f"{tr.operator.info['lowrank_pairs']}/{tr.operator.info['lowrank_candidates']}"
-                   f" block pairs low rank, {tr.operator.info['rays']:,} rays "
-                   f"({tr.operator.info['ray_time_s']:.0f} s)")
+    def light():
+        return stage("direct light, patches" if meshed.fine is None else
+                     "direct light, fine patches (+ element means)",
+                     lambda: stg.light_patches(direct, emission, meshed, quiet),
+                     lambda d: f"{d.shadow_rays - direct.shadow_rays:,} shadow rays")
+
+    def build(direct=None):
+        return stage(
+            "memory bound + partition + operator build",
+            lambda: stg.build_transport(sc, meshed, settings, direct=direct),
+            _sampled_note if args.transport == "sampled" else
+            lambda tr: f"bound {tr.bound_s:.1f} s, partition {tr.partition_s:.1f} s; "
+                       f"{tr.operator.nbytes / 2**30:.2f} GiB stored "
+                       f"({tr.operator.lowrank_nbytes / 2**30:.2f} low rank); "
+                       f"{tr.operator.info['near_pairs']:,} near patch pairs, "
+                       f"{tr.operator.info['lowrank_pairs']}/{tr.operator.info['lowrank_candidates']}"
+                       f" block pairs low rank, {tr.operator.info['rays']:,} rays "
+                       f"({tr.operator.info['ray_time_s']:.0f} s)")
+
+    # the pipeline's order (lighting/_pipeline.py): the sampled transport aims rays where the
+    # direct light lies, so it comes after that light; the blocks come first
+    if args.transport == "sampled":
+        direct = light()
+        transport = build(direct)
+    else:
+        transport = build()
+        direct = light()
     st["operator_bytes"] = transport.operator.nbytes
-    direct = stage("direct light, patches" if meshed.fine is None else
-                   "direct light, fine patches (+ element means)",
-                   lambda: stg.light_patches(direct, emission, meshed, quiet),
-                   lambda d: f"{d.shadow_rays - direct.shadow_rays:,} shadow rays")
     sampling = stage("spectral setup", lambda: stg.sample_spectra(sc, meshed, settings),
                      lambda s: f"{s.spectral.n} samples")
     rays = stage("gather rays", lambda: stg.cast_gather_rays(points, normals, meshed, sc,

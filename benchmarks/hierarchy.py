@@ -18,7 +18,8 @@ build and printed beside it, with the rate both without and with it. With
 ``--accuracy N`` one mesh of about N patches is solved with the block operator (hierarchical,
 default settings) and with the sampled one at each ``--rays``, lit by the study's own
 luminaires (direct light with shadows, every network at dimmer 1, luminous), ρ 0.6 on
-facades and 0.3 on the ground; it prints the inter-reflected irradiance's area-weighted mean
+facades and 0.3 on the ground, with cosine-weighted rays only and with a quarter of them aimed
+at the lit patches (``radiosity/_bright.py``, the proposal a study's pipeline makes); it prints the inter-reflected irradiance's area-weighted mean
 difference and RMS per patch (relative to the field's RMS, as tests/lighting/
 test_final_gather.py defines it).
 
@@ -282,6 +283,7 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
     from lumijax.lighting._pipeline import auto_patch_size
     from lumijax.radiosity import (
         SampledSettings,
+        bright_patches,
         build_operator,
         build_sampled,
         mesh_patches,
@@ -291,7 +293,8 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
 
     p = mesh_patches(tri, group=group, patch_size=auto_patch_size(area, args.accuracy))
     t = time.perf_counter()
-    e_dir = direct_illuminance(study.scene, p.centroid, p.normal).by_network.sum(axis=0)
+    by_network = direct_illuminance(study.scene, p.centroid, p.normal).by_network
+    e_dir = by_network.sum(axis=0)
     print(f"  {p.n:,} patches; direct light {time.perf_counter() - t:.1f} s", flush=True)
     rho = np.where(p.normal[:, 2] > 0.5, 0.3, 0.6)
     b0 = jnp.asarray((rho * e_dir)[:, None], jnp.float32)
@@ -312,19 +315,25 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
         return (np.sum(a * (x - y)) / np.sum(a * y),
                 np.sqrt(np.sum(a * (x - y) ** 2) / np.sum(a * y**2)))
 
-    print("\n| rays per patch | build (s) | MiB | links per patch | indirect mean | indirect RMS "
-          "per patch | first bounce mean | first bounce RMS |")
-    print("|" + "---|" * 8)
+    # the pipeline's proposal: each network's direct flux on the patches (radiosity/_bright.py)
+    proposal = bright_patches(by_network * a, p)
+    print("\n| rays per patch | rays | build (s) | MiB | links per patch | indirect mean | indirect "
+          "RMS per patch | first bounce mean | first bounce RMS |")
+    print("|" + "---|" * 9)
     for n in args.rays:
-        t = time.perf_counter()
-        op = build_sampled(p, tri, SampledSettings(rays_per_patch=n), caster=caster)
-        dt = time.perf_counter() - t
-        b = solve_radiosity(op, rho_j, b0).value
-        m, r = cmp(np.asarray(op.matmul(b), np.float64)[:, 0], ref)
-        m1, r1 = cmp(np.asarray(op.matmul(b0), np.float64)[:, 0], ref1)
-        print(f"| {n} | {dt:.1f} | {op.nbytes / 2**20:.0f} | {op.info['links_per_patch']:.0f} | "
-              f"{m:+.2%} | {r:.2%} | {m1:+.2%} | {r1:.2%} |", flush=True)
-        del op
+        for aimed in (None, proposal):
+            t = time.perf_counter()
+            op = build_sampled(p, tri, SampledSettings(rays_per_patch=n), caster=caster,
+                               bright=aimed)
+            dt = time.perf_counter() - t
+            b = solve_radiosity(op, rho_j, b0).value
+            m, r = cmp(np.asarray(op.matmul(b), np.float64)[:, 0], ref)
+            m1, r1 = cmp(np.asarray(op.matmul(b0), np.float64)[:, 0], ref1)
+            kind = "cosine" if aimed is None else f"{op.info['settings']['aimed_rays']} aimed"
+            print(f"| {n} | {kind} | {dt:.1f} | {op.nbytes / 2**20:.0f} | "
+                  f"{op.info['links_per_patch']:.0f} | {m:+.2%} | {r:.2%} | {m1:+.2%} | "
+                  f"{r1:.2%} |", flush=True)
+            del op
 
 
 if __name__ == "__main__":

@@ -95,7 +95,7 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
         max_iterations=c.max_iterations, gather_rays=c.gather_rays, precision=c.precision,
         spectral_samples=c.spectral_samples, operator_patches=c.operator_patches,
         refine=c.refine, refine_threshold=c.refine_threshold,
-        transport=c.transport, rays_per_patch=c.rays_per_patch,
+        transport=c.transport, rays_per_patch=c.rays_per_patch, aimed_share=c.aimed_share,
     )
     values.update(overrides)
     return SolverSettings(**values)

@@ -61,9 +61,20 @@ def solve_lighting(
         sol = st.direct_only(scene, points, normals, emission, direct)
         return _timed(sol, t0)
     meshed = st.mesh(scene, emission, settings)
-    transport = st.build_transport(scene, meshed, settings, cache_dir, report("form factors"))
+    # the sampled transport aims rays where the direct light lies (radiosity/_bright.py), so
+    # it comes after that light (its memory bounded before it); the blocks' bound needs their
+    # partition, so they come first and refuse before any light is cast
+    aimed = settings.transport == "sampled"
+    if aimed:
+        st.bound_sampled(scene, meshed, settings)
+    else:
+        transport = st.build_transport(scene, meshed, settings, cache_dir,
+                                       report("form factors"))
     direct = st.light_patches(direct, emission, meshed, report("direct light on patches"),
                               report("direct light near luminaires"))
+    if aimed:
+        transport = st.build_transport(scene, meshed, settings, cache_dir,
+                                       report("form factors"), direct=direct)
     sampling = st.sample_spectra(scene, meshed, settings)
     rays = st.cast_gather_rays(points, normals, meshed, scene, settings,
                                report("gathering onto grids"))

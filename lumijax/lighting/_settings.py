@@ -55,6 +55,7 @@ class SolverSettings:
     operator_patches: int | None = None  # two levels: elements for the operator (docs/radiosity.md)
     transport: str = "blocks"  # "sampled": ray-sampled form factors (radiosity/_sampled.py)
     rays_per_patch: int = 256  # rays cast from each patch by the sampled transport
+    aimed_share: float = 0.25  # of those, aimed at the lit patches (radiosity/_bright.py)
 
     def gather_rays_for(self, receivers: int) -> int:
         """Rays per receiver of a gather onto ``receivers`` points (:func:`gather_rays_for`)."""

@@ -59,8 +59,8 @@ from ._spectral import SpectralSetup, source_spectrum
 
 __all__ = [
     "Emission", "DirectLight", "Meshed", "Transport", "Sampling", "GatherRays", "Radiosity",
-    "Gathered", "group_emission", "light_points", "mesh", "build_transport", "light_patches",
-    "sample_spectra", "cast_gather_rays", "solve", "gather_fine", "assemble", "direct_only",
+    "Gathered", "group_emission", "light_points", "mesh", "bound_sampled", "build_transport",
+    "light_patches", "sample_spectra", "cast_gather_rays", "solve", "gather_fine", "assemble", "direct_only",
     "CREATED_WARN", "POINT_CHUNK", "patch_size_of", "requested_patches",
 ]
 
@@ -311,16 +311,18 @@ def mesh(scene: Scene, emission: Emission, settings: SolverSettings) -> Meshed:
 
 
 def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
-                    cache_dir=None, report: Report | None = None) -> Transport:
+                    cache_dir=None, report: Report | None = None, *,
+                    direct: DirectLight | None = None) -> Transport:
     """The operator of ``meshed.patches``: its memory bounded before any form factor (an
     operator that cannot fit is refused now, naming the settings that would fit, not after
     minutes of building: docs/radiosity.md, "Memory estimate"), then read from ``cache_dir``
-    or built (None: built every time)."""
+    or built (None: built every time). The sampled transport aims a share of its rays at the
+    patches ``direct`` lights (:func:`light_patches`; None: cosine-weighted rays only)."""
     t = time.perf_counter()
     tri, caster, patches, fine = scene.triangles, scene.raycaster, meshed.patches, meshed.fine
     dtype = np.float64 if settings.precision == "float64" else np.float32
     if settings.transport == "sampled":
-        return _sampled_transport(scene, patches, settings, dtype, cache_dir, t, report)
+        return _sampled_transport(scene, patches, settings, dtype, cache_dir, t, report, direct)
     max_block = block_size(settings.max_block, patches.n)
     estimate, part = bound_operator_memory(
         patches, max_block=max_block, itemsize=np.dtype(dtype).itemsize,
@@ -351,31 +353,49 @@ def build_transport(scene: Scene, meshed: Meshed, settings: SolverSettings,
                      time.perf_counter() - t)
 
 
-def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings, dtype,
-                       cache_dir, t0: float, report: Report | None = None) -> Transport:
-    """``[solver] transport = "sampled"``: rays from every patch (radiosity/_sampled.py), its
-    memory bounded first (every ray a link), then cached like the block operator."""
-    from ..radiosity import SampledSettings, build_sampled, cached_sampled_operator
+def bound_sampled(scene: Scene, meshed: Meshed, settings: SolverSettings) -> None:
+    """Refuse a sampled transport that cannot fit before any light is cast (it is built after
+    the direct light on the patches, where its rays aim: :func:`build_transport`)."""
+    _sampled_bound(scene, meshed.patches, settings,
+                   np.float64 if settings.precision == "float64" else np.float32)
+
+
+def _sampled_bound(scene: Scene, patches: Patches, settings: SolverSettings, dtype):
     from ..radiosity._estimate import bound_sampled_memory
 
     # the solve's columns too (one batch at least, and every column's result on the host):
     # one group per network and sample wavelength, the fewest the solve can have
     columns = len(scene.networks) * max(settings.spectral_samples, 1)
-    estimate = bound_sampled_memory(patches.n, settings.rays_per_patch,
-                                    itemsize=np.dtype(dtype).itemsize, file=scene.source,
-                                    columns=columns)
+    return bound_sampled_memory(patches.n, settings.rays_per_patch,
+                                itemsize=np.dtype(dtype).itemsize, file=scene.source,
+                                columns=columns)
+
+
+def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings, dtype,
+                       cache_dir, t0: float, report: Report | None = None,
+                       direct: DirectLight | None = None) -> Transport:
+    """``[solver] transport = "sampled"``: rays from every patch (radiosity/_sampled.py), a
+    share aimed at the patches ``direct`` lights (each group's flux, ``_bright.py``), its
+    memory bounded first (every ray a link), then cached like the block operator."""
+    from ..radiosity import SampledSettings, bright_patches, build_sampled, cached_sampled_operator
+
+    estimate = _sampled_bound(scene, patches, settings, dtype)
     bound_s = time.perf_counter() - t0
     t = time.perf_counter()
-    ss = SampledSettings(rays_per_patch=settings.rays_per_patch)
+    ss = SampledSettings(rays_per_patch=settings.rays_per_patch,
+                         aimed_share=settings.aimed_share)
+    bright = (None if direct is None or direct.patches is None or settings.aimed_share == 0
+              else bright_patches(direct.patches * patches.area, patches))
     hit: bool | None = None
     if cache_dir is not None:
         operator, hit = cached_sampled_operator(patches, scene.triangles.vertices, ss,
                                                 cache_dir=cache_dir, dtype=dtype,
-                                                caster=scene.raycaster, progress=report)
+                                                caster=scene.raycaster, progress=report,
+                                                bright=bright)
         hit = bool(hit)
     else:
         operator = build_sampled(patches, scene.triangles.vertices, ss, caster=scene.raycaster,
-                                 dtype=dtype, progress=report)
+                                 dtype=dtype, progress=report, bright=bright)
     return Transport(operator, hit, int(estimate.stored_bytes), bound_s, None,
                      time.perf_counter() - t)
 

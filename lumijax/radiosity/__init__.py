@@ -10,6 +10,7 @@ Data flow inside the wing (see ``docs/radiosity.md`` and ``docs/architecture.md`
     grids ─ build_gather ─▶ GatherOperator ◀── B (radiosity per patch) ─▶ illuminance on grids
 """
 
+from ._bright import BrightPatches as BrightPatches, bright_patches as bright_patches
 from ._build import FormFactorSettings as FormFactorSettings, build_operator as build_operator
 from ._cache import (
     cache_path as cache_path,

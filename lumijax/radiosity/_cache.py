@@ -24,6 +24,7 @@ from .._atomic import remove_orphans
 from .._version import __version__
 from ..errors import LumijaxWarning, OutputError
 from ..scene._raycast import RayCaster
+from ._bright import BrightPatches
 from ._build import FormFactorSettings, build_operator
 from ._operator import TransportOperator
 from ._partition import PartitionSettings, partition
@@ -180,23 +181,28 @@ def cached_sampled_operator(
     dtype=np.float32,
     caster=None,
     progress=None,
+    bright: BrightPatches | None = None,
 ) -> tuple[TransportOperator, bool]:
     """:func:`cached_operator` for the ray-sampled transport (``_sampled.py``): the key holds
     the :class:`SampledSettings` (rays, seed, batch) in place of the partition and form-factor
     settings, so a sampled and a block operator of one mesh never share a file.
 
     ``occluders``: the scene's triangles ``(T, 3, 3)`` (every one casts shadows; required, the
-    rays need them). ``progress(done, total)`` is called per batch of a build."""
+    rays need them). ``progress(done, total)`` is called per batch of a build. ``bright``: the
+    aimed rays' proposal (:func:`~lumijax.radiosity.bright_patches`), named in the key by its
+    hash: moving a luminaire builds anew, a dimmer does not."""
     settings = settings or SampledSettings()
     occ = np.asarray(occluders, np.float64)
     glazing = {} if caster is None or caster.glazing_key is None else {
         "glazing": caster.glazing_key}  # the rays carry the panes' τ(θ), as the blocks' do
+    aimed = {} if bright is None else {"bright": bright.key}
     key = operator_key(patches, occluders=occ, sampled=settings, dtype=np.dtype(dtype),
-                       **glazing)
+                       **glazing, **aimed)
 
     def build():
         c = caster if caster is not None else RayCaster(occ)
-        return build_sampled(patches, occ, settings, caster=c, dtype=dtype, progress=progress)
+        return build_sampled(patches, occ, settings, caster=c, dtype=dtype, progress=progress,
+                             bright=bright)
 
     return _cached(patches, key, cache_dir, build)
 

@@ -16,6 +16,7 @@ from lumijax.radiosity import (
     FormFactorSettings,
     PatchLocator,
     SampledSettings,
+    bright_patches,
     build_operator,
     build_sampled,
     mesh_patches,
@@ -89,16 +90,20 @@ def _back_wall(p) -> np.ndarray:
     return np.abs(p.centroid[:, 0]) < 1e-9  # the wall x = 0 of room A, facing +x
 
 
-def test_sampled_rays_pass_the_pane_with_tau_theta(rooms):
+@pytest.mark.parametrize("aimed", [False, True])
+def test_sampled_rays_pass_the_pane_with_tau_theta(rooms, aimed):
+    # aimed: half the rays drawn towards room B's far wall, through the pane (radiosity/_bright.py)
     tri, caster, p, pane = rooms
     back = np.flatnonzero(_back_wall(p))
     assert np.all(np.diff(back) == 1)  # one triangle pair's patches: one batch of them
     front = np.zeros((len(tri), 3))
     front[np.asarray(p.source_triangle)] = p.normal
-    recv, src, weight, _ = sample_batch(p, caster, int(back[0]), int(back[-1]) + 1,
-                                        SampledSettings(rays_per_patch=16384),
-                                        PatchLocator(p, tri), front)
     room_b = (p.centroid[:, 0] > 2.0 + 1e-9) & ~pane
+    far = np.abs(p.centroid[:, 0] - 4.0) < 1e-9
+    bright = bright_patches(np.where(far, p.area, 0.0), p) if aimed else None
+    recv, src, weight, _ = sample_batch(p, caster, int(back[0]), int(back[-1]) + 1,
+                                        SampledSettings(rays_per_patch=16384, aimed_share=0.5),
+                                        PatchLocator(p, tri), front, bright)
     got = float(weight[room_b[src]].sum() / p.area[back].sum())  # Σ A_i F_ij / Σ A_i
     # the opening's factor averaged over the wall (the rays start at stratified points of its
     # patches): 0.1998 bare; the pane's τ(θ) takes it to about 0.170

@@ -279,7 +279,7 @@ def test_memory_bound_refuses_and_names_the_setting():
         bound_sampled_memory(1_000_000, 256, available=1 << 30)
 
 
-def _room(transport: str, rays: int = 1024) -> str:
+def _room(transport: str, rays: int = 1024, **solver) -> str:
     import helpers as h
 
     return h.study_text(
@@ -290,7 +290,7 @@ def _room(transport: str, rays: int = 1024) -> str:
         h.lamp("A1", [1, 1.5, 2.0], "a"), h.lamp("B1", [3, 1.0, 2.4], "b", "down"),
         h.plane_grid("wp", [0.2, 0.2, 0.8], [3.6, 0, 0], [0, 2.6, 0], nu=6, nv=5),
         h.table("solver", patch_size=0.5, spectral_samples=0, transport=transport,
-                rays_per_patch=rays))
+                rays_per_patch=rays, **solver))
 
 
 def test_a_study_with_the_sampled_transport(write_study):
@@ -298,7 +298,9 @@ def test_a_study_with_the_sampled_transport(write_study):
     from lumijax import load_study
 
     blocks = lumijax.compute(load_study(write_study(_room("blocks"), "a.toml"))).lighting
-    study = load_study(write_study(_room("sampled"), "b.toml"))
+    # cosine rays only: a study that aims rays at its lit patches draws a new sample when a
+    # luminaire moves (test_bright.py), so replace_luminaire and a new solve agree to noise
+    study = load_study(write_study(_room("sampled", aimed_share=0.0), "b.toml"))
     sol = lumijax.compute(study).lighting
     assert sol.transport.info["transport"] == "sampled"
     np.testing.assert_array_equal(sol.point_direct, blocks.point_direct)
