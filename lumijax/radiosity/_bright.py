@@ -42,12 +42,14 @@ __all__ = ["BrightPatches", "bright_patches", "aimed_rays", "balance_weight", "a
 
 @dataclass(frozen=True, eq=False)
 class BrightPatches:
-    """Each patch's probability of being aimed at (``(P,)``, sums to 1) and its cumulative
-    sum; ``key`` names it in the operator's cache key (the float32 probabilities' SHA-256, so
-    last-bit differences of the direct light between runs do not miss the cache)."""
+    """Each patch's probability of being aimed at (``(P,)``, sums to 1), its cumulative sum and
+    its density ``p_a = P_j / A_j`` (m⁻²); ``key`` names it in the operator's cache key (the
+    float32 probabilities' SHA-256, so last-bit differences of the direct light between runs
+    do not miss the cache)."""
 
     probability: Float[np.ndarray, " patches"]
     cdf: Float[np.ndarray, " patches"] = field(repr=False)
+    density: Float[np.ndarray, " patches"] = field(repr=False)
     key: str
 
 
@@ -83,7 +85,7 @@ def bright_patches(flux: Float[np.ndarray, "groups patches"] | Float[np.ndarray,
     p = (f[lit] / total[lit, None]).mean(axis=0).astype(np.float32).astype(np.float64)
     p /= p.sum()
     key = hashlib.sha256(p.astype(np.float32).tobytes()).hexdigest()
-    return BrightPatches(p, np.cumsum(p), key)
+    return BrightPatches(p, np.cumsum(p), p / patches.area, key)
 
 
 def aimed_rays(rays_per_patch: int, share: float, bright: BrightPatches | None) -> int:
@@ -96,9 +98,14 @@ def aimed_rays(rays_per_patch: int, share: float, bright: BrightPatches | None) 
 
 def balance_weight(cos_i, cos_j, dist, n_cos: int, n_aim: int, aim_density):
     """A sample's weight ``p_c / (n_c p_c + n_a p_a)`` (module docstring): ``aim_density``
-    is ``p_a = P_j / A_j`` (m⁻²) of the patch reached; 1/n_c where it is 0."""
-    p_c = cos_i * cos_j / (np.pi * dist * dist)
-    return p_c / (n_cos * p_c + n_aim * aim_density)
+    is ``p_a = P_j / A_j`` (m⁻²) of the patch reached; 1/n_c where it is 0.
+
+    Taken as ``c / (n_c c + n_a p_a π d²)``, ``c = cos θ_i cos θ_j``: a cosine ray meeting a
+    surface at distance 0 (a ray leaving a patch at a contact line; Embree's float32) has
+    ``p_c = ∞`` and weighs 1/n_c, not NaN."""
+    c = cos_i * cos_j
+    den = n_cos * c + n_aim * aim_density * (np.pi * dist * dist)
+    return np.where(den > 0, c / np.where(den > 0, den, 1.0), 1.0 / n_cos)
 
 
 def aimed_samples(

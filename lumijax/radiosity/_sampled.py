@@ -524,10 +524,9 @@ def sample_batch(
         weight = (patches.area[r] * counts / n_rays).astype(np.float32)
         return r, (uniq % patches.n).astype(np.int32), weight, dict(rays=rays, ray_s=ray_s)
     else:
-        aim_density = bright.probability / patches.area
         w = balance_weight(local[hit % n_rays, 2],
                            -np.einsum("ij,ij->i", dirs[hit], patches.normal[j]),
-                           dist, n_rays, n_aim, aim_density[j])
+                           dist, n_rays, n_aim, bright.density[j])
         ar, asrc, x, u, d, ci, cj = aimed_samples(patches, start, stop, n_aim, bright,
                                                   np.random.default_rng((settings.seed, start,
                                                                          1)), 10.0 * nudge)
@@ -540,7 +539,7 @@ def sample_batch(
         rays += len(x)
         reached = k == asrc[seen]  # the aimed point itself, not what stands before it
         seen = seen[reached]
-        wa = balance_weight(ci[seen], cj[seen], d[seen], n_rays, n_aim, aim_density[asrc[seen]])
+        wa = balance_weight(ci[seen], cj[seen], d[seen], n_rays, n_aim, bright.density[asrc[seen]])
         if glazed:
             w, wa = w * carried, wa * through[reached]
         key = np.concatenate([recv * patches.n + j, ar[seen] * patches.n + asrc[seen]])

@@ -164,3 +164,18 @@ def test_the_share_is_a_checked_setting(write_study):
 
     with pytest.raises(ConfigError, match="aimed_share"):
         load_study(write_study(_room("sampled", aimed_share=0.95), "c.toml"))
+
+
+def test_the_weights_sum_to_the_cosine_density_and_stay_finite_at_contact():
+    from lumijax.radiosity._bright import balance_weight
+
+    rng = np.random.default_rng(0)
+    ci, cj, d, pa = rng.uniform(0.01, 1, (4, 1000))
+    w = balance_weight(ci, cj, d, 192, 64, pa * 5)
+    p_c = ci * cj / (np.pi * d * d)
+    # the balance heuristic: both strategies' expected weight at a point adds up to its integrand
+    np.testing.assert_allclose(w * (192 * p_c + 64 * pa * 5), p_c, rtol=1e-12)
+    # a ray meeting a surface at distance 0 (a contact line) or a patch with no light
+    np.testing.assert_allclose(balance_weight(np.r_[0.5, 0.5], np.r_[0.5, 0.5], np.r_[0.0, 1.0],
+                                              192, 64, np.r_[3.0, 0.0]), 1 / 192)
+    assert balance_weight(np.r_[0.0], np.r_[0.0], np.r_[0.0], 192, 64, np.r_[3.0]) == 1 / 192
