@@ -121,28 +121,41 @@ def aimed_samples(
            Float[np.ndarray, " k"]]:
     """The aimed rays of patches ``start..stop`` that face both ways.
 
-    Each receiver draws ``n_aim`` patches stratified over the proposal's cumulative sum, a
-    uniform point on each and a uniform start on itself, lifted ``lift`` (m) along its normal.
+    Each receiver draws ``n_aim`` patches stratified over the proposal's cumulative sum (one
+    uniform shift for all its strata: each pick is uniform in its stratum), a uniform point on
+    each and a uniform start on itself, lifted ``lift`` (m) along its normal.
     Returns ``(receiver, sender, start, direction, distance, cos_i, cos_j)`` (float64, m) of the
     rays whose both ends face each other (the others carry nothing under either strategy)."""
     m = stop - start
-    recv = np.repeat(np.arange(start, stop), n_aim)
-    strata = (np.tile(np.arange(n_aim), m) + rng.uniform(size=m * n_aim)) / n_aim
-    src = np.minimum(np.searchsorted(bright.cdf, strata * bright.cdf[-1], side="right"),
-                     patches.n - 1)
-    x = _uniform_on(patches.vertices[recv], rng.uniform(size=(len(recv), 2)))
-    x += lift * patches.normal[recv]
-    y = _uniform_on(patches.vertices[src], rng.uniform(size=(len(recv), 2)))
-    v = y - x
-    dist = np.linalg.norm(v, axis=1)
-    u = v / np.where(dist > 0, dist, 1.0)[:, None]
-    cos_i = np.einsum("ij,ij->i", u, patches.normal[recv])
-    cos_j = -np.einsum("ij,ij->i", u, patches.normal[src])
-    ok = (cos_i > 1e-9) & (cos_j > 1e-9) & (dist > 0)
-    return recv[ok], src[ok], x[ok], u[ok], dist[ok], cos_i[ok], cos_j[ok]
+    # systematic picks: one shift a receiver for all its strata, each pick uniform in its own.
+    # Taken with the receivers in the order of their shifts, every query exceeds the last, so
+    # the binary searches stay in the cache (3× faster at 3·10⁵ patches)
+    shift = rng.random(m)
+    order = np.argsort(shift)
+    q = (np.arange(n_aim)[:, None] + shift[order]) * (bright.cdf[-1] / n_aim)
+    src = np.empty((m, n_aim), np.int64)
+    src[order] = np.searchsorted(bright.cdf, q.ravel(), side="right").reshape(n_aim, m).T
+    src = np.minimum(src, patches.n - 1).ravel()
+    u = rng.random((4, m, n_aim))  # the start on the receiver, the point on the sender
+    # the starts by broadcasting the batch's own triangles (no gather a sample)
+    v = patches.vertices[start:stop, None]  # (m, 1, 3, 3)
+    n_i = patches.normal[start:stop, None]
+    x = _uniform_on(v, u[0:2]) + lift * n_i
+    y = _uniform_on(patches.vertices[src].reshape(m, n_aim, 3, 3), u[2:4])
+    d = y - x
+    dist = np.sqrt(np.einsum("...k,...k->...", d, d))
+    d /= np.where(dist > 0, dist, 1.0)[..., None]
+    cos_i = np.einsum("...k,...k->...", d, n_i)
+    cos_j = -np.einsum("...k,...k->...", d, patches.normal[src].reshape(m, n_aim, 3))
+    ok = ((cos_i > 1e-9) & (cos_j > 1e-9) & (dist > 0)).ravel()
+    keep = np.flatnonzero(ok)
+    return (start + keep // n_aim, src[keep], x.reshape(-1, 3)[keep], d.reshape(-1, 3)[keep],
+            dist.ravel()[keep], cos_i.ravel()[keep], cos_j.ravel()[keep])
 
 
-def _uniform_on(tri: Float[np.ndarray, "k 3 3"], u: Float[np.ndarray, "k 2"]):
-    """Points uniform in area on triangles, from uniform ``u`` in the unit square."""
-    s = np.sqrt(u[:, :1])
-    return ((1 - s) * tri[:, 0] + s * (1 - u[:, 1:]) * tri[:, 1] + s * u[:, 1:] * tri[:, 2])
+def _uniform_on(tri: Float[np.ndarray, "... 3 3"], u: Float[np.ndarray, "2 ..."]):
+    """Points uniform in area on triangles (broadcast against ``u``'s trailing shape), from
+    uniform ``u`` in the unit square: ``v0 + √u₀ ((1 − u₁)(v1 − v0) + u₁ (v2 − v0))``."""
+    s, t = np.sqrt(u[0])[..., None], u[1][..., None]
+    v0 = tri[..., 0, :]
+    return v0 + s * ((1 - t) * (tri[..., 1, :] - v0) + t * (tri[..., 2, :] - v0))
