@@ -87,6 +87,8 @@ def main(argv=None) -> None:
                    help="elements of the two-level operator (default: the study's; 0: one level)")
     p.add_argument("--transport", choices=("blocks", "sampled"), default="blocks")
     p.add_argument("--rays-per-patch", type=int, default=256, help="sampled transport")
+    p.add_argument("--aimed-share", type=float, default=0.25,
+                   help="sampled transport: the share of rays aimed at the lit patches")
     p.add_argument("--stop-after", default=None, help="stage name to stop after")
     p.add_argument("--progress", action="store_true",
                    help="check the progress bar's time left against each stage's real end")
@@ -147,7 +149,8 @@ def main(argv=None) -> None:
     settings = SolverSettings(target_patches=c.target_patches, max_block=args.max_block,
                               gather_rays=c.gather_rays, spectral_samples=c.spectral_samples,
                               operator_patches=c.operator_patches, transport=args.transport,
-                              rays_per_patch=args.rays_per_patch)
+                              rays_per_patch=args.rays_per_patch,
+                              aimed_share=args.aimed_share)
     def quiet(done, total):  # the stages' progress, kept for --progress
         events.append((time.perf_counter(), done, total))
 

@@ -178,7 +178,7 @@ def test_the_sampled_transport_built_on_the_cluster_is_the_local_build(client):
     the local build's bit for bit (a batch depends only on its span and the seed); a room with
     a box, so rays are blocked and hit back faces."""
     from lumijax.parallel import use_executor
-    from lumijax.radiosity import SampledSettings, build_sampled, mesh_patches
+    from lumijax.radiosity import SampledSettings, bright_patches, build_sampled, mesh_patches
     from lumijax.scene import RayCaster
 
     room = trimesh.creation.box((4.0, 3.0, 3.0))
@@ -201,6 +201,16 @@ def test_the_sampled_transport_built_on_the_cluster_is_the_local_build(client):
     for name in ("weight", "recv", "src"):  # the local build on two threads is the plain loop's
         np.testing.assert_array_equal(np.asarray(getattr(a, name)),
                                       np.asarray(getattr(one_thread, name)))
+    # rays aimed at the lit patches (the floor): the proposal travels with the batches
+    bright = bright_patches(np.where(patches.normal[:, 2] > 0.5, patches.area, 0.0), patches)
+    local = build_sampled(patches, tri, settings, threads=2, bright=bright).buckets[0]
+    with use_executor(ex):
+        remote = build_sampled(patches, tri, settings, caster=RayCaster(tri),
+                               bright=bright).buckets[0]
+    for name in ("weight", "recv", "src"):
+        np.testing.assert_array_equal(np.asarray(getattr(local, name)),
+                                      np.asarray(getattr(remote, name)))
+    assert not np.array_equal(np.asarray(local.weight[:100]), np.asarray(a.weight[:100]))
 
 
 def test_a_long_task_on_a_live_worker_is_waited_for_not_resent(client, tmp_path):
