@@ -60,7 +60,8 @@ from ._spectral import SpectralSetup, source_spectrum
 __all__ = [
     "Emission", "DirectLight", "Meshed", "Transport", "Sampling", "GatherRays", "Radiosity",
     "Gathered", "group_emission", "light_points", "mesh", "bound_sampled", "build_transport",
-    "light_patches", "sample_spectra", "cast_gather_rays", "solve", "gather_fine", "assemble", "direct_only",
+    "light_patches", "sample_spectra", "cast_gather_rays", "solve", "gather_fine", "assemble",
+    "direct_only",
     "CREATED_WARN", "POINT_CHUNK", "patch_size_of", "requested_patches",
 ]
 

@@ -74,11 +74,6 @@ _R2 = 1.32471795724474602596  # plastic number: the R2 low-discrepancy sequence'
 class SampledSettings:
     """Knobs of :func:`build_sampled` (hashable: part of the operator's cache key)."""
 
-    def __post_init__(self) -> None:
-        if not 0.0 <= self.aimed_share <= 0.9:
-            raise SolveError(f"aimed_share must lie in [0, 0.9] (the rest of a patch's rays stay "
-                             f"cosine-weighted, covering every direction), not {self.aimed_share!r}")
-
     rays_per_patch: int = 256
     """Rays cast from each patch; the per-patch noise of a bounce falls like N^(-1/2) or
     faster (stratified), the memory grows at most like N."""
@@ -86,15 +81,20 @@ class SampledSettings:
     """Seed of the per-patch rotations and shifts of the stratified pattern."""
     aimed_share: float = 0.25
     """Share of each patch's rays aimed at bright patches when :func:`build_sampled` is given
-    a proposal (``bright=``; ``_bright.py``); none without one. In the furnished test room at
-    256 rays 0.25 took the first bounce's noise per patch from 30 % to 4.8 % RMS and all
-    bounces' from 16 % to 2.5 % (0.5: 3.7 % and 2.2 %; docs/radiosity.md); a larger share
-    spends more rays on pools a patch may not see."""
+    a proposal (``bright=``; ``_bright.py``); none without one. In the furnished room at 256
+    rays 0.25 took the inter-reflected light's noise per patch from 14.6 % to 1.5 % RMS
+    (docs/radiosity.md, "Aimed rays"); a larger share spends more rays on pools a patch may
+    not see, and the cosine rays must be left to cover every direction."""
     batch: int = 2048
     """Patches per batch (one Embree query of batch × rays rays). Part of the key: a batch's
     random turns are drawn from (seed, first patch of the batch). 2048 × 256 rays keeps a
     batch's arrays in the last-level cache's reach: the 1.9·10⁵-patch courtyard built in
     13.0 s against 15.2 s with 8192 (2 threads, benchmarks/RESULTS.md)."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.aimed_share <= 0.9:
+            raise SolveError(f"aimed_share must lie in [0, 0.9] (the rest of a patch's rays stay "
+                             f"cosine-weighted, covering every direction), not {self.aimed_share!r}")
 
 
 class PatchLocator:
@@ -524,38 +524,36 @@ def sample_batch(
     ray_s = time.perf_counter() - t
     recv = hit // n_rays + start
     rays = len(o)
-    if bright is None:
-        key = recv * patches.n + j
-        uniq, counts = merged_links(key, carried)
+    if bright is None:  # every hit 1/N (τ of the panes it crossed with clear glass)
+        uniq, counts = merged_links(recv * patches.n + j, carried)
         r = (uniq // patches.n).astype(np.int32)
         weight = (patches.area[r] * counts / n_rays).astype(np.float32)
         return r, (uniq % patches.n).astype(np.int32), weight, dict(rays=rays, ray_s=ray_s)
-    else:
-        w = balance_weight(local[hit % n_rays, 2],
-                           -np.einsum("ij,ij->i", dirs[hit], patches.normal[j]),
-                           dist, n_rays, n_aim, bright.density[j])
-        ar, asrc, x, u, d, ci, cj = aimed_samples(patches, start, stop, n_aim, bright,
-                                                  np.random.default_rng((settings.seed, start,
-                                                                         1)), 10.0 * nudge)
-        t = time.perf_counter()
-        if glazed:  # the first hit beyond the panes, as the cosine rays see it (a pane's own
-            # patch is never reached: the cosine rays pass it too)
-            seen, k, _, through = _front_patches(caster, locator, front,
-                                                 (x - centre + nudge * u).astype(np.float32),
-                                                 u.astype(np.float32), centre, True,
-                                                 at_least=settings.batch * n_aim)
-            reached = k == asrc[seen]  # the aimed point itself, not what stands before it
-            seen = seen[reached]
-        else:  # whether the segment to the aimed point is clear: Embree's occlusion query,
-            # which stops at the point and at the first blocker (half the first hits' cost)
-            seen = np.flatnonzero(~caster.occluded_along(x, u, d))
-        ray_s += time.perf_counter() - t
-        rays += len(x)
-        wa = balance_weight(ci[seen], cj[seen], d[seen], n_rays, n_aim, bright.density[asrc[seen]])
-        if glazed:
-            w, wa = w * carried, wa * through[reached]
-        key = np.concatenate([recv * patches.n + j, ar[seen] * patches.n + asrc[seen]])
-        uniq, sums = merged_links(key, np.concatenate([w, wa]))
+    w = balance_weight(local[hit % n_rays, 2], -np.einsum("ij,ij->i", dirs[hit], patches.normal[j]),
+                       dist, n_rays, n_aim, bright.density[j])
+    ar, asrc, x, u, d, ci, cj = aimed_samples(patches, start, stop, n_aim, bright,
+                                              np.random.default_rng((settings.seed, start, 1)),
+                                              10.0 * nudge)
+    t = time.perf_counter()
+    if glazed:  # the first hit beyond the panes, as the cosine rays see it (a pane's own patch
+        # is never reached: the cosine rays pass it too)
+        seen, k, _, through = _front_patches(caster, locator, front,
+                                             (x - centre + nudge * u).astype(np.float32),
+                                             u.astype(np.float32), centre, True,
+                                             at_least=settings.batch * n_aim)
+        reached = k == asrc[seen]  # the aimed point itself, not what stands before it
+        seen = seen[reached]
+        w = w * carried
+    else:  # only whether the segment to the aimed point is clear: Embree's occlusion query,
+        # which stops at the point or the first blocker and needs no patch lookup
+        seen = np.flatnonzero(~caster.occluded_along(x, u, d))
+    ray_s += time.perf_counter() - t
+    rays += len(x)
+    wa = balance_weight(ci[seen], cj[seen], d[seen], n_rays, n_aim, bright.density[asrc[seen]])
+    if glazed:
+        wa = wa * through[reached]
+    key = np.concatenate([recv * patches.n + j, ar[seen] * patches.n + asrc[seen]])
+    uniq, sums = merged_links(key, np.concatenate([w, wa]))
     r = (uniq // patches.n).astype(np.int32)
     weight = (patches.area[r] * sums).astype(np.float32)
     return r, (uniq % patches.n).astype(np.int32), weight, dict(rays=rays, ray_s=ray_s)
