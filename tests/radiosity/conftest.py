@@ -15,6 +15,17 @@ def quad(o, u, v) -> np.ndarray:
     return np.array([[o, o + u, o + u + v], [o, o + u + v, o + v]])
 
 
+def opposed_rectangles(x: float, y: float) -> float:
+    """The factor between two directly opposed, equal parallel rectangles a × b, c apart, with
+    X = a/c and Y = b/c (Howell's catalogue; ../shared/reference/form-factors.md §3, whose §8
+    gives 0.1998248957 at X = Y = 1)."""
+    return 2 / (np.pi * x * y) * (
+        np.log(np.sqrt((1 + x * x) * (1 + y * y) / (1 + x * x + y * y)))
+        + x * np.sqrt(1 + y * y) * np.arctan(x / np.sqrt(1 + y * y))
+        + y * np.sqrt(1 + x * x) * np.arctan(y / np.sqrt(1 + x * x))
+        - x * np.arctan(x) - y * np.arctan(y))
+
+
 def disk(centre, radius, up: bool, sides: int = 96) -> np.ndarray:
     """A triangle fan approximating a disk in a horizontal plane, facing +z if ``up``."""
     c = np.asarray(centre, float)

@@ -20,6 +20,7 @@ from lumijax.radiosity import (
     solve_radiosity,
 )
 
+from .conftest import opposed_rectangles
 from .test_sampled import _furnished_triangles, _room
 
 
@@ -81,12 +82,7 @@ def test_aimed_rays_stay_unbiased_for_light_they_do_not_aim_at():
     assert op.info["settings"]["aimed_rays"] == 256
     f = op.todense()
     f_fc = (p.area[floor, None] * f[np.ix_(floor, ceil)]).sum() / p.area[floor].sum()
-    x, y = 1.0 / 1.5, 2.0 / 1.5  # Howell: parallel rectangles
-    ref = 2 / (np.pi * x * y) * (
-        np.log(np.sqrt((1 + x * x) * (1 + y * y) / (1 + x * x + y * y)))
-        + x * np.sqrt(1 + y * y) * np.arctan(x / np.sqrt(1 + y * y))
-        + y * np.sqrt(1 + x * x) * np.arctan(y / np.sqrt(1 + x * x))
-        - x * np.arctan(x) - y * np.arctan(y))
+    ref = opposed_rectangles(1.0 / 1.5, 2.0 / 1.5)
     assert f_fc == pytest.approx(ref, rel=0.015)
     # and the rows still close: each patch's samples of both kinds estimate Σ_j F_ij = 1
     rows = np.asarray(op.row_sums())

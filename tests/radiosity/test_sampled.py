@@ -25,7 +25,7 @@ from lumijax.radiosity import (
 )
 from lumijax.radiosity._estimate import bound_sampled_memory
 
-from .conftest import quad
+from .conftest import opposed_rectangles, quad
 
 SECRET = b"a test secret of thirty-two chars"
 
@@ -74,12 +74,7 @@ def test_rows_never_exceed_one_and_close_in_a_box():
     f = op.todense()
     floor, ceil = p.normal[:, 2] > 0.5, p.normal[:, 2] < -0.5
     f_fc = (p.area[floor, None] * f[np.ix_(floor, ceil)]).sum() / p.area[floor].sum()
-    x, y = 1.0 / 1.5, 2.0 / 1.5  # Howell: parallel rectangles, same formula as §8's
-    ref = 2 / (np.pi * x * y) * (
-        np.log(np.sqrt((1 + x * x) * (1 + y * y) / (1 + x * x + y * y)))
-        + x * np.sqrt(1 + y * y) * np.arctan(x / np.sqrt(1 + y * y))
-        + y * np.sqrt(1 + x * x) * np.arctan(y / np.sqrt(1 + x * x))
-        - x * np.arctan(x) - y * np.arctan(y))
+    ref = opposed_rectangles(1.0 / 1.5, 2.0 / 1.5)
     assert f_fc == pytest.approx(ref, rel=0.02)
 
 
