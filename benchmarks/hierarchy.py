@@ -19,9 +19,9 @@ build and printed beside it, with the rate both without and with it. With
 default settings) and with the sampled one at each ``--rays``, lit by the study's own
 luminaires (direct light with shadows, every network at dimmer 1, luminous), ρ 0.6 on
 facades and 0.3 on the ground, with cosine-weighted rays only and with a quarter of them aimed
-at the lit patches (``radiosity/_bright.py``, the proposal a study's pipeline makes); it prints the inter-reflected irradiance's area-weighted mean
-difference and RMS per patch (relative to the field's RMS, as tests/lighting/
-test_final_gather.py defines it).
+at the lit patches (``radiosity/_bright.py``, the proposal a study's pipeline makes); it prints
+the inter-reflected irradiance's area-weighted mean difference and RMS per patch (relative to
+the field's RMS, as tests/lighting/test_final_gather.py defines it).
 
 Scenes: ``courtyard`` is the study generator's courtyard (studies/courtyard/make_courtyard.py;
 4 facades × ``--bays`` bays with reveals, columns and cornices: far pairs are self-shadowed, so
