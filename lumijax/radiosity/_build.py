@@ -9,7 +9,9 @@ Per patch pair, by the centre distance d relative to the larger patch diameter (
   horizon-clipped source triangle (exact in the source), averaged over the receiver's
   sub-triangle centroids (``mid_subdiv``², or ``close_subdiv``² when r < ``close_ratio``:
   neighbours sharing an edge), computed both ways and symmetrised, times the fraction of
-  unblocked rays between the two patches' quadrature points.
+  unblocked rays between the two patches' quadrature points — or, where those rays disagree (a
+  shadow edge crosses the pair), the light of a ray from each receiver point to each of the
+  source's (≤ 4) points, weighed by where the factor lies (:func:`_shadowed_view`).
 
 Why this choice, with numbers, is in ``docs/radiosity.md``.
 """
@@ -271,30 +273,69 @@ def _dispatch(q, n, tri, kernel):
     return calls, npair, nq
 
 
-def _contour_mean(started) -> np.ndarray:
-    """Mean over each pair's receiver points of the factors :func:`_contour_start` dispatched."""
+def _contour_values(started) -> np.ndarray:
+    """Each pair's receiver points' factors (pairs, points) that :func:`_contour_start`
+    dispatched."""
     if isinstance(started, _Split):
-        out = np.empty(started.npair)
+        out = np.empty((started.npair, started.parts[0][1][2]))
         for rows, part in started.parts:
-            out[rows] = _contour_mean(part)
+            out[rows] = _contour_values(part)
         return out
     calls, npair, nq = started
     out = np.empty(npair * nq)
     for k, c in enumerate(calls):
         part = out[k * _BATCH : (k + 1) * _BATCH]
         part[:] = np.asarray(c)[: len(part)]
-    return out.reshape(npair, nq).mean(axis=1)
+    return out.reshape(npair, nq)
+
+
+def _contour_mean(started) -> np.ndarray:
+    """Mean over each pair's receiver points of the factors :func:`_contour_start` dispatched."""
+    return _contour_values(started).mean(axis=1)
 
 
 def _visibility(caster, qi, qj, rays: int) -> np.ndarray:
-    """Mean light carried by rays between quadrature points of pairs (N, Q, 3) × (N, Q, 3): the
-    unblocked fraction, with a ray through clear glass counting τ(θ) (docs/materials.md)."""
+    """Light carried by each of ``rays`` rays between quadrature points of pairs (N, Q, 3) ×
+    (N, Q, 3), (N, rays): 0 blocked, 1 clear, τ(θ) through clear glass (docs/materials.md)."""
     n, q = qi.shape[:2]
     k = np.arange(rays)
     a, b = k % q, (k * 7 + 3 * (k // q) + 1) % q  # a fixed scramble pairing points of i and j
     o = qi[:, a].reshape(-1, 3)
     t = qj[:, b].reshape(-1, 3)
-    return caster.pair_transmission(o, t).reshape(n, rays).mean(axis=1)
+    return caster.pair_transmission(o, t).reshape(n, rays)
+
+
+def _shadowed_view(p: Patches, i, j, qi, sj, f_ij, caster, counters) -> np.ndarray:
+    """The light a near pair that a shadow edge crosses passes, weighed where its form factor
+    is (pairs,): from each receiver point (``qi``, (pairs, m, 3)) a ray to each source point
+    (``sj``, (pairs, k, 3)), each ray weighed by the point-to-point kernel
+    ``cos θ_i cos θ_j / r²`` (the share of the factor its part of the source holds), the
+    receiver points by their exact factors to the whole source (``f_ij``, (pairs, m), from the
+    contour integral).
+
+    Why: the plain fraction of clear rays assumes the blocked part of the source is as bright
+    in the kernel as the rest. Where a column meets a cornice the blocked part is the source's
+    far side, and a wall patch under the cornice read 21 % low against a fine quadrature
+    (docs/radiosity.md, "Shadowed near pairs")."""
+    n, m, k = len(i), qi.shape[1], sj.shape[1]
+    a = np.repeat(qi, k, axis=1).reshape(-1, 3)
+    b = np.tile(sj, (1, m, 1)).reshape(-1, 3)
+    t0 = time.perf_counter()
+    view = caster.pair_transmission(a, b).reshape(n, m, k)
+    counters["ray_time"] += time.perf_counter() - t0
+    counters["rays"] += n * m * k
+    r = (b - a).reshape(n, m, k, 3)
+    cos_i = np.maximum(np.einsum("nabc,nc->nab", r, p.normal[i]), 0.0)
+    cos_j = np.maximum(-np.einsum("nabc,nc->nab", r, p.normal[j]), 0.0)
+    w = cos_i * cos_j / np.maximum(np.einsum("nabc,nabc->nab", r, r), 1e-300) ** 2
+
+    def weighed(x, weight, axis):
+        """Mean of x weighed along ``axis``; the plain mean where no weight."""
+        total = weight.sum(axis=axis)
+        return np.where(total > 0, (weight * x).sum(axis=axis) / np.where(total > 0, total, 1),
+                        x.mean(axis=axis))
+
+    return weighed(weighed(view, w, 2), np.maximum(f_ij, 0.0), 1)
 
 
 def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster, counters,
@@ -325,18 +366,30 @@ def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster,
         f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj], kernels, w_ij)
         f_ji = (_contour_start(qj, p.normal[jj], p.vertices[ii], kernels, w_ji)
                 if s.symmetrise else None)
-        parts.append((sel, ii, jj, qi, qj, rays, f_ij, f_ji))
+        parts.append((sel, ii, jj, qi, qj, nsub, rays, f_ij, f_ji))
 
     def finish() -> np.ndarray:
-        for sel, ii, jj, qi, qj, rays, f_ij, f_ji in parts:
-            gg = p.area[ii] * _contour_mean(f_ij)
+        for sel, ii, jj, qi, qj, nsub, rays, f_ij, f_ji in parts:
+            v_ij = _contour_values(f_ij)
+            gg = p.area[ii] * v_ij.mean(axis=1)
             if f_ji is not None:
                 gg = 0.5 * (gg + p.area[jj] * _contour_mean(f_ji))
             if caster is not None:
                 t0 = time.perf_counter()
-                gg = gg * _visibility(caster, qi, qj, rays)
+                carried = _visibility(caster, qi, qj, rays)
                 counters["ray_time"] += time.perf_counter() - t0
                 counters["rays"] += len(ii) * rays
+                view = carried.mean(axis=1)
+                # rays that disagree: a shadow edge crosses the pair
+                cut = np.flatnonzero(carried.min(axis=1) < carried.max(axis=1))
+                if len(cut):
+                    counters["shadowed_near_pairs"] += len(cut)
+                    # the source's points at most the mid quadrature's (4): a ray from each
+                    # receiver point to each, 16 or 64 a pair, not 256
+                    sj = _quad_points(p.vertices[jj[cut]], min(nsub, s.mid_subdiv))
+                    view[cut] = _shadowed_view(p, ii[cut], jj[cut], qi[cut], sj, v_ij[cut],
+                                               caster, counters)
+                gg = gg * view
             g[sel] = gg
         return g
 
@@ -408,7 +461,7 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
 
 def _near_task(pairs, *, patches, part, settings, caster, diam, spread):
     """One batch of near-field pairs on any process: their dense blocks and ray counts."""
-    counters = dict(rays=0, ray_time=0.0, near_pairs=0)
+    counters = dict(rays=0, ray_time=0.0, near_pairs=0, shadowed_near_pairs=0)
     blocks = [_pair_block(patches, part.block(a), part.block(b), a == b, settings, caster,
                           counters, diam, spread) for a, b in pairs]
     return blocks, counters
@@ -482,7 +535,7 @@ def build_operator(
         occluder_triangles = np.asarray(occluders, np.float64)
         caster = RayCaster(occluders)
     t_start = time.perf_counter()
-    counters = dict(rays=0, ray_time=0.0, near_pairs=0)
+    counters = dict(rays=0, ray_time=0.0, near_pairs=0, shadowed_near_pairs=0)
     if caster is not None and caster.sees_everything:
         # a convex room seen from inside (a plain box): no segment between its surfaces can
         # be blocked, so the rays would all come back clear (RayCaster.sees_everything)
@@ -560,6 +613,7 @@ def build_operator(
         rays=counters["rays"],
         ray_time_s=counters["ray_time"],
         near_pairs=counters["near_pairs"],
+        shadowed_near_pairs=counters["shadowed_near_pairs"],
         visibility_skipped=bool(counters.get("skipped_visibility", 0)),
         lowrank_candidates=counters.get("lowrank_candidates", 0),
         lowrank_pairs=counters.get("lowrank_pairs", 0),

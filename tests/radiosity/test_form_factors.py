@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from lumijax.kernels import form_factor_point_front_triangle, form_factor_point_triangle
+from lumijax.radiosity import FormFactorSettings, build_operator, mesh_patches, partition
+from lumijax.scene._raycast import RayCaster
 
 from .conftest import disk, quad, surface_factor
 
@@ -146,6 +148,29 @@ def test_perpendicular_rectangles_with_common_edge(name, lwh, ref):
     f12, f21, a1, a2, _ = surface_factor(floor, wall, 0.25)
     assert f12 == pytest.approx(ref, rel=0.01)
     assert a1 * f12 == pytest.approx(a2 * f21, rel=0.02)
+
+
+@pytest.mark.parametrize("symmetrise", [True, False])
+def test_a_shadow_across_a_near_pair_is_weighed_where_the_kernel_is(symmetrise):
+    # A 1 × 1 wall on a floor 2 m deep, and a screen 2 m tall standing on the floor 1 m out:
+    # the wall sees exactly the floor's first metre, the cube's wall-to-floor factor (§8). Whole
+    # triangles as patches, so each wall-floor pair is a near pair half in shadow; the product
+    # of the unblocked factor and the fraction of clear rays read 0.146 here (−27 %). Now one way
+    # reads −0.2 % (the unshadowed cube's whole triangles: the same), symmetrised −1.5 % (the
+    # floor's points in the light are half of them: a coarser quadrature of the way back).
+    wall = quad([0, 0, 0], [0, 1, 0], [0, 0, 1])  # normal +x
+    floor = quad([0, 0, 0], [2, 0, 0], [0, 1, 0])  # normal +z
+    screen = quad([1, -1, 0], [0, 0, 2], [0, 3, 0])  # facing the wall (−x)
+    tri = np.concatenate([wall, floor, screen])
+    p = mesh_patches(tri, group=np.repeat([0, 1, 2], 2), patch_size=3.0)
+    assert (p.group < 2).sum() == 4  # whole: the floor's pieces meet the screen's foot on an edge
+    caster = RayCaster(tri)
+    op = build_operator(p, partition(p, 1024, occluders=caster), caster,
+                        FormFactorSettings(symmetrise=symmetrise), occluder_triangles=tri)
+    assert op.info["shadowed_near_pairs"] > 0
+    w, f = p.group == 0, p.group == 1
+    g = p.area[:, None] * op.todense()
+    assert g[np.ix_(w, f)].sum() / p.area[w].sum() == pytest.approx(0.2000437761, rel=0.02)
 
 
 @pytest.mark.parametrize(
