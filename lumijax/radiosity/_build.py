@@ -339,12 +339,13 @@ def _shadowed_view(p: Patches, i, j, qi, sj, f_ij, caster, counters) -> np.ndarr
 
 
 def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster, counters,
-                      diam, whole=None):
+                      diam, whole=None, cut=None):
     """``A_i F_ij`` (m²) for the near pairs ``ia[li]``, ``ib[lj]`` of two blocks by the
     contour integral and receiver quadrature, its kernel calls dispatched now: returns the
     function that waits for them and gives it (the caller computes the far field meanwhile).
     ``diam``: every patch's diameter; ``whole``: per pair, whether j lies wholly in front of
-    i's plane and i of j's (:func:`_contour_start`), or None."""
+    i's plane and i of j's (:func:`_contour_start`), or None; ``cut``: per pair, whether i's
+    plane cuts j and j's plane cuts i (corners on both sides), or None."""
     i, j = ia[li], ib[lj]
     g = np.zeros(len(i))
     if not len(i):
@@ -366,14 +367,22 @@ def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster,
         f_ij = _contour_start(qi, p.normal[ii], p.vertices[jj], kernels, w_ij)
         f_ji = (_contour_start(qj, p.normal[jj], p.vertices[ii], kernels, w_ji)
                 if s.symmetrise else None)
-        parts.append((sel, ii, jj, qi, qj, nsub, rays, f_ij, f_ji))
+        c_ij, c_ji = (None, None) if cut is None else (cut[0][sel], cut[1][sel])
+        parts.append((sel, ii, jj, qi, qj, nsub, rays, f_ij, f_ji, c_ij, c_ji))
 
     def finish() -> np.ndarray:
-        for sel, ii, jj, qi, qj, nsub, rays, f_ij, f_ji in parts:
+        for sel, ii, jj, qi, qj, nsub, rays, f_ij, f_ji, c_ij, c_ji in parts:
             v_ij = _contour_values(f_ij)
             gg = p.area[ii] * v_ij.mean(axis=1)
             if f_ji is not None:
-                gg = 0.5 * (gg + p.area[jj] * _contour_mean(f_ji))
+                g_ji = p.area[jj] * _contour_mean(f_ji)
+                both = 0.5 * (gg + g_ji)
+                if c_ij is not None:
+                    # a receiver that the source's plane cuts averages a step over its points
+                    # (lit on one side, nothing on the other): take the other way alone, exact
+                    # in it (docs/radiosity.md, "Shadowed near pairs")
+                    both = np.where(c_ij & ~c_ji, gg, np.where(c_ji & ~c_ij, g_ji, both))
+                gg = both
             if caster is not None:
                 t0 = time.perf_counter()
                 carried = _visibility(caster, qi, qj, rays)
@@ -431,9 +440,12 @@ def _pair_block(p: Patches, ia, ib, diagonal, s: FormFactorSettings, caster, cou
         keep = (ahead_i > tol[:, None]).any(1) & (ahead_j > tol[:, None]).any(1)
         clear = np.maximum(tol, _WHOLE * size[ni_i, nj_j])[:, None]
         whole = ((ahead_j > clear).all(1)[keep], (ahead_i > clear).all(1)[keep])
+        cut = (((ahead_j < -clear).any(1) & (ahead_j > clear).any(1))[keep],
+               ((ahead_i < -clear).any(1) & (ahead_i > clear).any(1))[keep])
         ni_i, nj_j = ni_i[keep], nj_j[keep]
         counters["near_pairs"] += len(ni_i)
-        near_done = _near_pairs_start(p, ia, ib, ni_i, nj_j, s, caster, counters, diam, whole)
+        near_done = _near_pairs_start(p, ia, ib, ni_i, nj_j, s, caster, counters, diam, whole,
+                                      cut)
     far = ~near & (cos_i > 0) & (cos_j > 0) & upper
     # the far kernel (form_factor_far) in float64 numpy (host side) on the far pairs only, by
     # flat index: the same operations on the same numbers as on the whole block, without the
