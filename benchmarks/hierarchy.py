@@ -97,6 +97,9 @@ def main(argv=None) -> None:
                     help="sampled: rays per patch (the first for the memory sweep)")
     ap.add_argument("--accuracy", type=int, default=None, metavar="N",
                     help="sampled: compare with the block operator on one mesh of ~N patches")
+    ap.add_argument("--fine", type=int, default=0, metavar="K",
+                    help="with --accuracy: the K open patches where the operators differ most, "
+                         "their near light against a fine quadrature (≈ 10 s each)")
     args = ap.parse_args(argv)
     if args.transport == "sampled":
         return sampled_main(args)
@@ -276,6 +279,71 @@ def sampled_main(args) -> None:
               f"{r['rss']:.2f} | {r['growth']:.2f} |")
 
 
+def _inside(p, caster, points: int = 16, rays: int = 32) -> np.ndarray:
+    """The share of each patch's points (``points`` R2 points a patch) that lie inside the model:
+    at least a quarter of the point's ``rays`` cosine-weighted rays meet a triangle's back
+    (in the open a point sees fronts only; inside a column's half prism or under its foot it
+    sees the backs of the faces around it). On the quarter the points split cleanly: 0–6 % of
+    their rays or ≥ 50 %."""
+    g = 1.32471795724474602596  # R2's points on the triangle, Fibonacci's on the hemisphere
+    u = np.stack([(0.5 + np.arange(points) / g) % 1, (0.5 + np.arange(points) / g**2) % 1])
+    v = p.vertices
+    at = v[:, None, 0] + np.sqrt(u[0])[None, :, None] * (
+        (1 - u[1])[None, :, None] * (v[:, None, 1] - v[:, None, 0])
+        + u[1][None, :, None] * (v[:, None, 2] - v[:, None, 0]))
+    k = np.arange(rays) + 0.5
+    r, phi = np.sqrt(k / rays), k * np.pi * (3 - np.sqrt(5))
+    local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1 - r * r)], 1)
+    n = p.normal
+    tx = np.cross(n, [0.0, 0.0, 1.0])
+    flat = np.linalg.norm(tx, axis=1) < 1e-6
+    tx[flat] = np.cross(n[flat], [1.0, 0.0, 0.0])
+    tx /= np.linalg.norm(tx, axis=1, keepdims=True)
+    dirs = (local[None, :, 0, None] * tx[:, None] + local[None, :, 1, None] * np.cross(n, tx)[:, None]
+            + local[None, :, 2, None] * n[:, None]).reshape(-1, 3)
+    tri = caster.triangles
+    face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    inside = np.zeros((p.n, points), bool)
+    for m in range(points):
+        hit, _ = caster.first_hit(np.repeat(at[:, m] + 1e-4 * n, rays, axis=0), dirs)
+        back = (hit >= 0) & (np.einsum("ij,ij->i", dirs, face[np.maximum(hit, 0)]) > 0)
+        inside[:, m] = back.reshape(p.n, rays).mean(axis=1) >= 0.25
+    return inside.mean(axis=1)
+
+
+def _lambert(x, nx, tris) -> np.ndarray:
+    """Lambert's point-to-polygon factors (K,) from point x (normal nx) to triangles (K, 3, 3)
+    in front of it (reference §7), in float64 numpy: written apart from the kernels."""
+    r1 = tris - x
+    r2 = np.roll(r1, -1, axis=1)
+    c = np.cross(r1, r2)
+    cn = np.linalg.norm(c, axis=2)
+    angle = np.arctan2(cn, np.einsum("kij,kij->ki", r1, r2))
+    return np.abs((np.einsum("kij,j->ki", c, nx) / np.maximum(cn, 1e-300) * angle).sum(1)) / (
+        2 * np.pi)
+
+
+def _fine_near(p, caster, i: int, b_near: np.ndarray, cuts=(16, 16)) -> float:
+    """The irradiance (lx) patch ``i`` receives from the radiosity ``b_near`` (lm/m², zero
+    beyond the near sources) by a fine quadrature independent of both operators: the receiver
+    cut into ``cuts[0]``² sub-triangles (their centroids the points), each source into
+    ``cuts[1]``² pieces, Lambert's factor from each point to each piece in front of it, times a
+    shadow ray to the piece's centroid."""
+    from lumijax.radiosity import subdivide_triangles
+
+    points = subdivide_triangles(p.vertices[i][None], cuts[0])[0].mean(axis=1)
+    src = np.flatnonzero(b_near > 0)
+    pieces = subdivide_triangles(p.vertices[src], cuts[1]).reshape(-1, 3, 3)
+    per = cuts[1] ** 2
+    b, nj, mid = np.repeat(b_near[src], per), np.repeat(p.normal[src], per, 0), pieces.mean(1)
+    total = 0.0
+    for x in points:
+        ok = ((mid - x) @ p.normal[i] > 0) & (np.einsum("ij,ij->i", x - mid, nj) > 0)
+        seen = ~caster.occluded(np.broadcast_to(x + 1e-6 * p.normal[i], (ok.sum(), 3)), mid[ok])
+        total += np.sum(b[ok] * _lambert(x, p.normal[i], pieces[ok]) * seen)
+    return total / len(points)
+
+
 def _accuracy(args, study, tri, group, area, caster) -> None:
     import jax.numpy as jnp
 
@@ -296,6 +364,12 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
     by_network = direct_illuminance(study.scene, p.centroid, p.normal).by_network
     e_dir = by_network.sum(axis=0)
     print(f"  {p.n:,} patches; direct light {time.perf_counter() - t:.1f} s", flush=True)
+    inside = _inside(p, caster)
+    a = p.area
+    open_ = inside == 0
+    print(f"  patches inside the model (column prisms, feet): {(inside == 1).sum():,} wholly, "
+          f"{((inside > 0) & (inside < 1)).sum():,} in part; {np.sum(a * inside) / a.sum():.1%} "
+          "of the area", flush=True)
     rho = np.where(p.normal[:, 2] > 0.5, 0.3, 0.6)
     b0 = jnp.asarray((rho * e_dir)[:, None], jnp.float32)
     rho_j = jnp.asarray(rho, jnp.float32)
@@ -303,23 +377,25 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
     dense = build_operator(p, partition(p, args.max_block, occluders=caster), caster,
                            occluder_triangles=tri)
     t_dense = time.perf_counter() - t
-    b = solve_radiosity(dense, rho_j, b0).value
-    ref = np.asarray(dense.matmul(b), np.float64)[:, 0]
+    b_dense = solve_radiosity(dense, rho_j, b0).value
+    ref = np.asarray(dense.matmul(b_dense), np.float64)[:, 0]
     ref1 = np.asarray(dense.matmul(b0), np.float64)[:, 0]
-    print(f"  block operator: {t_dense:.1f} s, {dense.nbytes / 2**20:.0f} MiB, peak RSS "
-          f"{_rss_gib():.2f} GiB", flush=True)
-    del dense
-    a = p.area
+    print(f"  block operator: {t_dense:.1f} s, {dense.nbytes / 2**20:.0f} MiB, "
+          f"{dense.info['shadowed_near_pairs']:,} of {dense.info['near_pairs']:,} near pairs "
+          f"shadowed, peak RSS {_rss_gib():.2f} GiB", flush=True)
+    if not args.fine:
+        del dense
 
-    def cmp(x, y):
-        return (np.sum(a * (x - y)) / np.sum(a * y),
-                np.sqrt(np.sum(a * (x - y) ** 2) / np.sum(a * y**2)))
+    def cmp(x, y, m=slice(None)):
+        return (np.sum((a * (x - y))[m]) / np.sum((a * y)[m]),
+                np.sqrt(np.sum((a * (x - y) ** 2)[m]) / np.sum((a * y**2)[m])))
 
     # the pipeline's proposal: each network's direct flux on the patches (radiosity/_bright.py)
     proposal = bright_patches(by_network * a, p)
     print("\n| rays per patch | rays | build (s) | MiB | links per patch | indirect mean | indirect "
-          "RMS per patch | first bounce mean | first bounce RMS |")
-    print("|" + "---|" * 9)
+          "RMS per patch | first bounce mean | first bounce RMS | open patches: indirect mean, "
+          "RMS |")
+    print("|" + "---|" * 10)
     for n in args.rays:
         for aimed in (None, proposal):
             t = time.perf_counter()
@@ -327,13 +403,47 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
                                bright=aimed)
             dt = time.perf_counter() - t
             b = solve_radiosity(op, rho_j, b0).value
-            m, r = cmp(np.asarray(op.matmul(b), np.float64)[:, 0], ref)
+            x = np.asarray(op.matmul(b), np.float64)[:, 0]
+            m, r = cmp(x, ref)
             m1, r1 = cmp(np.asarray(op.matmul(b0), np.float64)[:, 0], ref1)
+            mo, ro = cmp(x, ref, open_)
             kind = "cosine" if aimed is None else f"{op.info['settings']['aimed_rays']} aimed"
             print(f"| {n} | {kind} | {dt:.1f} | {op.nbytes / 2**20:.0f} | "
                   f"{op.info['links_per_patch']:.0f} | {m:+.2%} | {r:.2%} | {m1:+.2%} | "
-                  f"{r1:.2%} |", flush=True)
-            del op
+                  f"{r1:.2%} | {mo:+.2%}, {ro:.2%} |", flush=True)
+            if args.fine and n == args.rays[-1] and aimed is None:
+                last = (op, x, n)
+            else:
+                del op
+    if args.fine:
+        _fine_check(p, caster, dense, *last, ref, b_dense, open_, args.fine)
+
+
+def _fine_check(p, caster, dense, sampled, x, rays, ref, b, open_, k: int) -> None:
+    """Both operators' near light on the ``k`` open patches where they differ most, against
+    :func:`_fine_near` (the block solution's radiosity on the sources within 1.5 m of any of
+    them, zero beyond: the same light for all three)."""
+    import jax.numpy as jnp
+
+    worst = np.argsort(-np.where(open_, p.area * (x - ref) ** 2, 0.0))[:k]
+    gap = np.linalg.norm(p.centroid[:, None] - p.centroid[worst][None], axis=2).min(axis=1)
+    b_near = np.where(gap < 1.5, np.asarray(b, np.float64)[:, 0], 0.0)
+    column = jnp.asarray(b_near[:, None], jnp.float32)
+    near_block = np.asarray(dense.matmul(column), np.float64)[:, 0]
+    near_sampled = np.asarray(sampled.matmul(column), np.float64)[:, 0]
+    print(f"\n| patch | centroid (m) | normal | fine (lx) | block | sampled, {rays} cosine rays |")
+    print("|" + "---|" * 6)
+    rel = []
+    for i in worst:
+        t = time.perf_counter()
+        f = _fine_near(p, caster, int(i), b_near)
+        rel.append((near_block[i] / f - 1, near_sampled[i] / f - 1))
+        print(f"| {i} | {np.round(p.centroid[i], 2)} | {np.round(p.normal[i], 2)} | {f:.2f} | "
+              f"{rel[-1][0]:+.1%} | {rel[-1][1]:+.1%} | ({time.perf_counter() - t:.0f} s)",
+              flush=True)
+    rel = np.array(rel)
+    print(f"block {rel[:, 0].min():+.1%} … {rel[:, 0].max():+.1%} (mean {rel[:, 0].mean():+.1%}); "
+          f"sampled {rel[:, 1].min():+.1%} … {rel[:, 1].max():+.1%} (mean {rel[:, 1].mean():+.1%})")
 
 
 if __name__ == "__main__":

@@ -549,6 +549,7 @@ def compare(args) -> None:
             print(f"| {kind} | {name} | {ok.sum()} | {np.sum(xo - ro) / np.sum(ro):+.2%} | "
                   f"{np.sqrt(raw):.1%} | {np.sqrt(max(raw - noise, 0)):.1%} | "
                   f"±{np.sqrt(np.sum(so)) / np.sum(ro):.2%} | {np.sqrt(noise):.1%} |")
+    _by_kind_of_receiver(work, runs, est, recv)
     if len(names) > 1:
         print("\n| quantity | operator | mean vs blocks (all patches, area-weighted) | RMS |")
         print("|---|---|---|---|")
@@ -563,6 +564,51 @@ def compare(args) -> None:
                 x = np.load(work / f"{name}.npz")[kind]
                 print(f"| {kind} | {name} | {np.sum(a * (x - y)) / np.sum(a * y):+.2%} | "
                       f"{np.sqrt(np.sum(a * (x - y) ** 2) / np.sum(a * y**2)):.1%} |")
+
+
+def _inside_share(work: Path) -> np.ndarray:
+    """Each patch's share of points inside the model (benchmarks/hierarchy.py's back-face
+    probe), kept in ``work``."""
+    path = work / "inside.npy"
+    if not path.exists():
+        from types import SimpleNamespace
+
+        from lumijax.scene._raycast import RayCaster
+
+        spec = importlib.util.spec_from_file_location("hierarchy",
+                                                      ROOT / "benchmarks" / "hierarchy.py")
+        hierarchy = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(hierarchy)
+        g = np.load(work / "patches.npz")
+        p = SimpleNamespace(vertices=g["vertices"], normal=g["normal"], n=len(g["area"]))
+        np.save(path, hierarchy._inside(p, RayCaster(g["triangles"])))
+    return np.load(path)
+
+
+def _by_kind_of_receiver(work: Path, runs, est, recv) -> None:
+    """The table again for the receivers in the open, partly inside the model (behind a
+    column's half prism, under its foot) and wholly inside it, where Radiance's points see the
+    model's backs and no operator's patch mean means anything to a designer."""
+    inside = _inside_share(work)[recv]
+    print("\n| quantity | operator | receivers | mean vs Radiance | RMS per patch, Radiance's "
+          "noise removed |")
+    print("|---|---|---|---|---|")
+    for kind, v in runs.items():
+        m = np.stack([r[kind].mean(axis=1) for r in v])
+        ref = m.mean(axis=0)
+        se2 = m.var(axis=0, ddof=1) / len(v) if len(v) > 1 else np.zeros_like(ref)
+        for where, mask in (("open", inside == 0), ("partly inside", (inside > 0) & (inside < 1)),
+                            ("inside", inside == 1)):
+            for name, x in est[kind]:
+                ok = mask & np.isfinite(x)
+                if not ok.any() or "," in name or "(" in name:
+                    continue
+                xo, ro = x[ok], ref[ok]
+                raw = np.mean((xo - ro) ** 2) / np.mean(ro**2)
+                noise = np.mean(se2[ok]) / np.mean(ro**2)
+                print(f"| {kind} | {name}, {where} | {ok.sum()} | "
+                      f"{np.sum(xo - ro) / np.sum(ro):+.2%} | "
+                      f"{np.sqrt(max(raw - noise, 0)):.1%} |")
 
 
 def main(argv=None) -> None:
