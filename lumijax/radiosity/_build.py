@@ -277,7 +277,8 @@ def _contour_values(started) -> np.ndarray:
     """Each pair's receiver points' factors (pairs, points) that :func:`_contour_start`
     dispatched."""
     if isinstance(started, _Split):
-        out = np.empty((started.npair, started.parts[0][1][2]))
+        points = started.parts[0][1][2]  # each part is (rows, (calls, pairs, points))
+        out = np.empty((started.npair, points))
         for rows, part in started.parts:
             out[rows] = _contour_values(part)
         return out
@@ -327,7 +328,8 @@ def _shadowed_view(p: Patches, i, j, qi, sj, f_ij, caster, counters) -> np.ndarr
     r = (b - a).reshape(n, m, k, 3)
     cos_i = np.maximum(np.einsum("nabc,nc->nab", r, p.normal[i]), 0.0)
     cos_j = np.maximum(-np.einsum("nabc,nc->nab", r, p.normal[j]), 0.0)
-    w = cos_i * cos_j / np.maximum(np.einsum("nabc,nabc->nab", r, r), 1e-300) ** 2
+    r2 = np.einsum("nabc,nabc->nab", r, r)
+    w = cos_i * cos_j / np.maximum(r2 * r2, 1e-300)  # cos_i, cos_j carry a factor r each
 
     def weighed(x, weight, axis):
         """Mean of x weighed along ``axis``; the plain mean where no weight."""
@@ -390,14 +392,14 @@ def _near_pairs_start(p: Patches, ia, ib, li, lj, s: FormFactorSettings, caster,
                 counters["rays"] += len(ii) * rays
                 view = carried.mean(axis=1)
                 # rays that disagree: a shadow edge crosses the pair
-                cut = np.flatnonzero(carried.min(axis=1) < carried.max(axis=1))
-                if len(cut):
-                    counters["shadowed_near_pairs"] += len(cut)
+                shadowed = np.flatnonzero(carried.min(axis=1) < carried.max(axis=1))
+                if len(shadowed):
+                    counters["shadowed_near_pairs"] += len(shadowed)
                     # the source's points at most the mid quadrature's (4): a ray from each
                     # receiver point to each, 16 or 64 a pair, not 256
-                    sj = _quad_points(p.vertices[jj[cut]], min(nsub, s.mid_subdiv))
-                    view[cut] = _shadowed_view(p, ii[cut], jj[cut], qi[cut], sj, v_ij[cut],
-                                               caster, counters)
+                    sj = _quad_points(p.vertices[jj[shadowed]], min(nsub, s.mid_subdiv))
+                    view[shadowed] = _shadowed_view(p, ii[shadowed], jj[shadowed], qi[shadowed],
+                                                    sj, v_ij[shadowed], caster, counters)
                 gg = gg * view
             g[sel] = gg
         return g
