@@ -21,7 +21,9 @@ luminaires (direct light with shadows, every network at dimmer 1, luminous), ρ 
 facades and 0.3 on the ground, with cosine-weighted rays only and with a quarter of them aimed
 at the lit patches (``radiosity/_bright.py``, the proposal a study's pipeline makes); it prints
 the inter-reflected irradiance's area-weighted mean difference and RMS per patch (relative to
-the field's RMS, as tests/lighting/test_final_gather.py defines it).
+the field's RMS, as tests/lighting/test_final_gather.py defines it). ``--noise-split`` adds,
+for each ``--rays``, where the sampled operator's own noise lies by the distance of the pair
+and what sharing far hits between coplanar neighbours does (``_noise_split``).
 
 Scenes: ``courtyard`` is the study generator's courtyard (studies/courtyard/make_courtyard.py;
 4 facades × ``--bays`` bays with reveals, columns and cornices: far pairs are self-shadowed, so
@@ -100,6 +102,10 @@ def main(argv=None) -> None:
     ap.add_argument("--fine", type=int, default=0, metavar="K",
                     help="with --accuracy: the K open patches where the operators differ most, "
                          "their near light against a fine quadrature (≈ 10 s each)")
+    ap.add_argument("--noise-split", action="store_true",
+                    help="with --accuracy: where the sampled operator's own noise lies (two "
+                         "seeds, split by the distance of the pair) and what sharing the far "
+                         "hits between coplanar neighbours would do")
     args = ap.parse_args(argv)
     if args.transport == "sampled":
         return sampled_main(args)
@@ -417,6 +423,92 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
                 del op
     if args.fine:
         _fine_check(p, caster, dense, *last, ref, b_dense, open_, args.fine)
+    if args.noise_split:
+        b_ref = np.asarray(b_dense, np.float64)[:, 0]
+        for n in args.rays:
+            _noise_split(p, tri, caster, n, b_ref, ref, rho, np.asarray(b0)[:, 0], open_)
+
+
+def _links(op, p):
+    """The sampled operator's F as a SciPy CSR matrix (float64)."""
+    import scipy.sparse as sparse
+
+    b = op.buckets[0]
+    w, r, c = (np.asarray(x) for x in (b.weight, b.recv, b.src))
+    keep = r < p.n  # not the padding
+    area = np.asarray(p.area, np.float64)
+    return sparse.csr_matrix((w[keep] / area[r[keep]], (r[keep], c[keep])), shape=(p.n, p.n))
+
+
+def _noise_split(p, tri, caster, rays, b, ref, rho, b0, open_) -> None:
+    """Where the sampled operator's own noise lies on the open patches, and one remedy tried.
+
+    Own noise: two seeds' difference of one product F·B (B the block solution's radiosity) ÷ √2,
+    RMS per patch relative to the field's RMS, split by the pair's centroid distance (what an
+    exact near field within d would leave is the far part). Sharing: each patch's hits beyond
+    ``d`` replaced by the area-weighted mean of its coplanar neighbours' within 0.5 m (the far
+    field, seen from points 0.5 m apart, differing little), solved and compared with the block
+    operator as in the table above."""
+    import scipy.sparse as sparse
+    from scipy.spatial import cKDTree
+
+    from lumijax.radiosity import SampledSettings, build_sampled
+
+    a = np.asarray(p.area, np.float64)
+    f = [_links(build_sampled(p, tri, SampledSettings(rays_per_patch=rays, seed=s),
+                              caster=caster), p) for s in (0, 1)]
+
+    def rms(x, m=open_):
+        return np.sqrt(np.sum((a * x**2)[m]) / np.sum((a * ref**2)[m]))
+
+    def far(m, d):
+        m = m.tocoo()
+        beyond = np.linalg.norm(c[m.row] - c[m.col], axis=1) > d
+        return sparse.csr_matrix((m.data * beyond, (m.row, m.col)), shape=m.shape)
+
+    c = np.asarray(p.centroid, np.float64)
+    noise = (f[0] - f[1]) @ b / np.sqrt(2)
+    print(f"\n{rays} cosine rays, own noise of one product F·B on the open patches: "
+          f"{rms(noise):.2%}")
+    print("| pairs nearer than d (m) | their share of F·B | noise left beyond d | noise within d |")
+    print("|" + "---|" * 4)
+    for d in (0.5, 1.0, 2.0, 4.0, 8.0):
+        fn = [far(m, d) for m in f]
+        beyond = (fn[0] - fn[1]) @ b / np.sqrt(2)
+        share = 1 - np.sum(a * (fn[0] @ b)) / np.sum(a * (f[0] @ b))
+        print(f"| {d} | {share:.1%} | {rms(beyond):.2%} | {rms(noise - beyond):.2%} |")
+    nrm = np.asarray(p.normal, np.float64)
+    i, k = cKDTree(c).query_pairs(0.5, output_type="ndarray").T
+    same = ((np.einsum("ij,ij->i", nrm[i], nrm[k]) > 0.9999)
+            & (np.abs(np.einsum("ij,ij->i", nrm[i], c[k] - c[i])) < 1e-3))
+    i, k = np.r_[i[same], k[same], np.arange(p.n)], np.r_[k[same], i[same], np.arange(p.n)]
+    share = sparse.csr_matrix((a[k], (i, k)), shape=(p.n, p.n))
+    share = sparse.diags(1 / np.asarray(share.sum(axis=1)).ravel()) @ share
+
+    def indirect(m):
+        x = b0.copy()
+        for _ in range(500):
+            y = b0 + rho * (m @ x)
+            if np.abs(y - x).max() <= 1e-7 * np.abs(y).max():
+                break
+            x = y
+        return m @ y
+
+    def cmp(x, m=open_):
+        return (np.sum((a * (x - ref))[m]) / np.sum((a * ref)[m]), rms(x - ref, m))
+
+    print(f"\n| sampled, {rays} rays (seed 0) | all patches: mean, RMS | open: mean, RMS |")
+    print("|---|---|---|")
+    rows = [("as built", f[0])] + [
+        (f"far hits (> {d} m) shared, {share.getnnz(axis=1).mean():.0f} neighbours", None)
+        for d in (1.0, 2.0, 4.0)]
+    for (label, m), d in zip(rows, (None, 1.0, 2.0, 4.0), strict=True):
+        if m is None:
+            fd = far(f[0], d)
+            m = f[0] - fd + share @ fd
+        x = indirect(m)
+        (ma, ra), (mo, ro) = cmp(x, slice(None)), cmp(x)
+        print(f"| {label} | {ma:+.2%}, {ra:.2%} | {mo:+.2%}, {ro:.2%} |", flush=True)
 
 
 def _fine_check(p, caster, dense, sampled, x, rays, ref, b, open_, k: int) -> None:
