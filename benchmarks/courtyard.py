@@ -221,6 +221,11 @@ def main(argv=None) -> None:
                                 f"{sampling.spectral.n} λ, "
                                 f"{r.stats()['columns_solved']} columns solved, "
                                 f"{r.stats()['iterations']} iterations")
+    if args.transport == "sampled":  # the error beside the figures, measured at this scale
+        stage("own noise (4,096 patches' rays cast again)",
+              lambda: stg.transport_noise(sc, meshed, transport, radiosity),
+              lambda n: f"{n.rms:.2%} RMS per patch of the inter-reflected light at "
+                        f"{n.rays_per_patch} rays ({n.patches:,} patches, mean {n.mean:+.2%})")
     lighting = None
     if meshed.fine is not None:
         gathered = stage("final gather (fine gather rays + reflect)",

@@ -21,7 +21,9 @@ luminaires (direct light with shadows, every network at dimmer 1, luminous), ρ 
 facades and 0.3 on the ground, with cosine-weighted rays only and with a quarter of them aimed
 at the lit patches (``radiosity/_bright.py``, the proposal a study's pipeline makes); it prints
 the inter-reflected irradiance's area-weighted mean difference and RMS per patch (relative to
-the field's RMS, as tests/lighting/test_final_gather.py defines it). ``--noise-split`` adds,
+the field's RMS, as tests/lighting/test_final_gather.py defines it), and beside it the
+operator's own noise as a study states it (``radiosity/_noise.py``: 4,096 patches' rays cast
+again with another seed, for the sampled solution). ``--noise-split`` adds,
 for each ``--rays``, where the sampled operator's own noise lies by the distance of the pair
 and what sharing far hits between coplanar neighbours does (``_noise_split``).
 
@@ -362,6 +364,7 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
         build_sampled,
         mesh_patches,
         partition,
+        sampled_noise,
         solve_radiosity,
     )
 
@@ -400,8 +403,8 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
     proposal = bright_patches(by_network * a, p)
     print("\n| rays per patch | rays | build (s) | MiB | links per patch | indirect mean | indirect "
           "RMS per patch | first bounce mean | first bounce RMS | open patches: indirect mean, "
-          "RMS |")
-    print("|" + "---|" * 10)
+          "RMS | own noise, estimated (radiosity/_noise.py) |")
+    print("|" + "---|" * 11)
     for n in args.rays:
         for aimed in (None, proposal):
             t = time.perf_counter()
@@ -413,10 +416,13 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
             m, r = cmp(x, ref)
             m1, r1 = cmp(np.asarray(op.matmul(b0), np.float64)[:, 0], ref1)
             mo, ro = cmp(x, ref, open_)
+            noise = sampled_noise(op, p, SampledSettings(rays_per_patch=n), np.asarray(b)[:, 0],
+                                  caster=caster, bright=aimed)
             kind = "cosine" if aimed is None else f"{op.info['settings']['aimed_rays']} aimed"
             print(f"| {n} | {kind} | {dt:.1f} | {op.nbytes / 2**20:.0f} | "
                   f"{op.info['links_per_patch']:.0f} | {m:+.2%} | {r:.2%} | {m1:+.2%} | "
-                  f"{r1:.2%} | {mo:+.2%}, {ro:.2%} |", flush=True)
+                  f"{r1:.2%} | {mo:+.2%}, {ro:.2%} | {noise.rms:.2%} ({noise.seconds:.1f} s) |",
+                  flush=True)
             if args.fine and n == args.rays[-1] and aimed is None:
                 last = (op, x, n)
             else:

@@ -241,7 +241,7 @@ def compute(
     solver = {k: v for k, v in lighting.stats.items()
               if k in ("patch_size_m", "iterations", "residual", "escaped_fraction",
                        "operator_cache_hit", "spectral_samples", "columns_solved",
-                       "solved_directly",
+                       "solved_directly", "sampled_noise",
                        "gather_rays")}
     if lighting.spectral is not None and lighting.spectral.sampling is not None:
         solver["wavelengths_nm"] = [float(w) for w in lighting.spectral.sampling.wavelengths_nm]

@@ -423,7 +423,7 @@ def _process_age() -> float | None:
 TIMING_ROWS = (
     ("config", ("config",)), ("scene", ("scene",)), ("meshing", ("mesh",)),
     ("direct light", ("direct_points", "direct_patches")),
-    ("operator", ("memory_bound", "partition", "operator")),
+    ("operator", ("memory_bound", "partition", "operator", "sampled_noise")),
     ("spectral sampling", ("spectral_sampling",)), ("solve", ("solve",)),
     ("gather", ("gather_rays", "gather", "final_gather")),
 )

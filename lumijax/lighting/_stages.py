@@ -30,6 +30,8 @@ from ..radiosity import (
     GatherOperator,
     PartitionSettings,
     Patches,
+    SampledNoise,
+    SampledSettings,
     TransportOperator,
     build_exact_gather,
     build_gather,
@@ -40,6 +42,7 @@ from ..radiosity import (
     partition,
     patch_slopes,
     refine_patches,
+    sampled_noise,
 )
 from ..radiosity._estimate import bound_operator_memory, check_before_meshing
 from ..radiosity._final_gather import FineLevel, element_direct, final_gather
@@ -60,9 +63,9 @@ from ._spectral import SpectralSetup, source_spectrum
 __all__ = [
     "Emission", "DirectLight", "Meshed", "Transport", "Sampling", "GatherRays", "Radiosity",
     "Gathered", "group_emission", "light_points", "mesh", "bound_sampled", "build_transport",
-    "light_patches", "sample_spectra", "cast_gather_rays", "solve", "gather_fine", "assemble",
-    "direct_only",
-    "CREATED_WARN", "POINT_CHUNK", "patch_size_of", "requested_patches",
+    "light_patches", "sample_spectra", "cast_gather_rays", "solve", "transport_noise",
+    "gather_fine", "assemble", "direct_only",
+    "CREATED_WARN", "NOISE_WARN", "POINT_CHUNK", "patch_size_of", "requested_patches",
 ]
 
 Report = Callable[[int, int], None]
@@ -70,6 +73,10 @@ Report = Callable[[int, int], None]
 CREATED_WARN = 0.01
 """Fraction of the reflected flux that rows summing above 1 would create, beyond which a
 study is warned (the solve corrects it either way)."""
+
+NOISE_WARN = 0.03
+"""Own noise of the sampled transport (RMS per patch of the inter-reflected irradiance,
+relative; ``radiosity/_noise.py``) beyond which a study is warned: issue 17's 3 %."""
 
 #: Grid points per chunk of direct light and gathering on a large grid: each chunk reports
 #: progress (a 10⁷-point grid in ~80 steps), and one chunk's rays and pairs stay in memory.
@@ -178,6 +185,9 @@ class Transport:
     bound_s, partition_s, seconds
         Wall time (s) of the memory bound, of the partition (built without a cache; None
         otherwise: the cache partitions on a miss) and of building or loading the operator.
+    sampled, bright
+        The sampled transport's settings and the patches its aimed rays were aimed at (what
+        :func:`transport_noise` casts again); None for the block operator.
     """
 
     operator: TransportOperator
@@ -186,6 +196,8 @@ class Transport:
     bound_s: float
     partition_s: float | None
     seconds: float
+    sampled: SampledSettings | None = None
+    bright: object | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -398,7 +410,33 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
         operator = build_sampled(patches, scene.triangles.vertices, ss, caster=scene.raycaster,
                                  dtype=dtype, progress=report, bright=bright)
     return Transport(operator, hit, int(estimate.stored_bytes), bound_s, None,
-                     time.perf_counter() - t)
+                     time.perf_counter() - t, sampled=ss, bright=bright)
+
+
+def transport_noise(scene: Scene, meshed: Meshed, transport: Transport,
+                    radiosity: Radiosity) -> SampledNoise | None:
+    """The sampled transport's own noise per patch for the solved radiosity (every group at
+    full output, luminous; :func:`~lumijax.radiosity.sampled_noise`: 4,096 patches' rays cast
+    again with another seed), with a warning above :data:`NOISE_WARN` that names the rays a
+    patch for 3 %; None for the block operator."""
+    if transport.sampled is None:
+        return None
+    b = np.asarray(radiosity.shot.radiosity, np.float64).sum(axis=0)
+    noise = sampled_noise(transport.operator, meshed.patches, transport.sampled, b,
+                          caster=scene.raycaster, bright=transport.bright)
+    if noise.rms > NOISE_WARN:
+        n = noise.rays_per_patch
+        # the noise falls about as rays^-1/2 (docs/radiosity.md, "Noise, measured")
+        enough = int(64 * np.ceil(n * (noise.rms / NOISE_WARN) ** 2 / 64))
+        warnings.warn(
+            f"the sampled transport's own noise is ≈ {100 * noise.rms:.1f} % RMS per patch of "
+            f"the inter-reflected light at {n} rays a patch (estimated by casting "
+            f"{noise.patches:,} patches' rays again): the light on each patch (patches.vtp, "
+            f"the surface maps) carries it, the grid points, which gather from many patches, "
+            f"far less; [solver] rays_per_patch = {enough} would bring it to ≈ 3 %",
+            LumijaxWarning, stacklevel=3,
+        )
+    return noise
 
 
 def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
@@ -494,7 +532,7 @@ def gather_fine(scene: Scene, emission: Emission, direct: DirectLight, meshed: M
 def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emission,
              direct: DirectLight, meshed: Meshed, transport: Transport, sampling: Sampling,
              rays: GatherRays, radiosity: Radiosity, gathered: Gathered,
-             settings: SolverSettings) -> LightingSolution:
+             settings: SolverSettings, noise: SampledNoise | None = None) -> LightingSolution:
     """The :class:`LightingSolution` of the records: groups summed into networks, the stats
     and the stages' times (``stats["timing_s"]``, docs/results.md), and the warnings a
     solve can give (rows creating light, an open scene)."""
@@ -512,6 +550,9 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
         stats["operator_cache_hit"] = transport.cache_hit
     stats.update(operator_bytes=int(transport.operator.nbytes),
                  spectral_samples=sampling.spectral.n, **solve_stats)
+    if noise is not None:
+        stats["sampled_noise"] = dict(rms=noise.rms, mean=noise.mean, patches=noise.patches,
+                                      rays_per_patch=noise.rays_per_patch)
     timing = {"emission": emission.seconds, "direct_points": direct.points_s,
               "mesh": meshed.seconds, "memory_bound": transport.bound_s}
     if transport.partition_s is not None:
@@ -519,6 +560,8 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
     timing.update(operator=transport.seconds, direct_patches=direct.patches_s,
                   spectral_sampling=sampling.seconds, gather_rays=rays.seconds,
                   solve_and_gather=radiosity.seconds, **shot.timing_s)
+    if noise is not None:
+        timing["sampled_noise"] = noise.seconds
     fine_level = None
     if fine is not None:
         timing["final_gather"] = gathered.seconds

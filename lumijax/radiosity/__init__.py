@@ -23,6 +23,7 @@ from ._exact_gather import (
     build_exact_gather as build_exact_gather,
 )
 from ._gather import GatherOperator as GatherOperator, build_gather as build_gather
+from ._noise import SampledNoise as SampledNoise, sampled_noise as sampled_noise
 from ._operator import (
     Bucket as Bucket,
     LowRankBucket as LowRankBucket,

@@ -55,7 +55,7 @@ from ._operator import Info, SampledBucket, TransportOperator
 from ._patches import Patches
 
 __all__ = ["SampledSettings", "PatchLocator", "sample_batch", "build_sampled", "sampled_bytes",
-           "LINK_BYTES"]
+           "front_normals", "LINK_BYTES"]
 
 #: Stored bytes per link: int32 receiver, int32 sender, float32 weight.
 LINK_BYTES = 12
@@ -579,6 +579,14 @@ def _front_patches(caster, locator, front, o, dirs, centre, glazed: bool, at_lea
     return hit, j[hit], np.asarray(dist[hit], np.float64), None
 
 
+def front_normals(patches: Patches, caster, locator: PatchLocator) -> Float[np.ndarray, "tri 3"]:
+    """Each triangle's front normal, as :func:`sample_batch` takes them: float32 like the rays'
+    directions and as long as the lookup's padded tables (no copy a batch)."""
+    front = np.zeros((max(caster.n_triangles, len(locator.tables()["kind"])), 3), np.float32)
+    front[np.asarray(patches.source_triangle)] = patches.normal
+    return front
+
+
 def build_sampled(
     patches: Patches,
     triangles: Float[np.ndarray, "tri 3 3"],
@@ -630,9 +638,7 @@ def build_sampled(
     caster = RayCaster(triangles) if caster is None else caster
     t0 = time.perf_counter()
     locator = PatchLocator(patches, triangles)
-    # as the rays' directions, and as long as the lookup's padded tables: no copy a batch
-    front = np.zeros((max(caster.n_triangles, len(locator.tables()["kind"])), 3), np.float32)
-    front[np.asarray(patches.source_triangle)] = patches.normal
+    front = front_normals(patches, caster, locator)
     spans = [(a, min(a + s.batch, patches.n)) for a in range(0, patches.n, s.batch)]
 
     def one(a, b):

@@ -1,0 +1,126 @@
+"""The sampled transport's own noise per patch, estimated by casting a sample of its rows again.
+
+At the default 256 rays a patch, a sampled operator's error per patch is mostly its own noise
+(the courtyard quarter: 6.5 % RMS of the inter-reflected light per patch, the furnished room
+with aimed rays 1.5 %; docs/radiosity.md, "Sampled transport"), and how large it is depends on
+the scene: on how much the radiosity a patch sees varies within one stratum of its rays. The
+operator alone cannot tell. Casting some of its rows again with another seed can: two
+independent estimates of one row differ by √2 times the noise of either, so
+
+    noise = RMS_i (x_i − x'_i) / √2  /  RMS_i x_i,     x = F B,  x' = F' B,
+
+over ``sample`` patches (area-weighted, as benchmarks/hierarchy.py and docs/radiosity.md
+define the RMS per patch), B the solved radiosity, F' the same rows cast with seed + 1. The
+patches are taken in ``runs`` runs spread along the mesh: consecutive patches lie on one
+triangle, and a sample from one corner of a scene says little about the rest. The figure is
+itself a sample: ≈ 1/√(2 · sample) relative for independent patches, more where neighbours
+share their light's texture (the runs); tests/radiosity/test_noise.py checks it against both
+whole operators' difference.
+
+It is the noise of one product F B with B fixed — what a patch's inter-reflected irradiance
+(``patches.vtp``, the surface maps) carries. B itself carries ρ times it, and a grid point
+gathers from hundreds of patches, so the points' noise is far smaller.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Float
+
+from ._operator import TransportOperator
+from ._patches import Patches
+from ._sampled import SampledSettings, front_normals, sample_batch
+
+__all__ = ["SampledNoise", "sampled_noise"]
+
+
+@dataclass(frozen=True)
+class SampledNoise:
+    """The own noise of a sampled operator's rows (module docstring).
+
+    Attributes
+    ----------
+    rms
+        RMS per patch of one estimate's noise of the inter-reflected irradiance, relative to
+        the field's RMS over the sample (0.065: 6.5 %).
+    mean
+        Area-weighted mean of ``x − x'`` relative to the mean of ``x``: the sample's own
+        imbalance (near 0; the estimator is unbiased).
+    patches
+        Patches in the sample.
+    rays_per_patch
+        Rays a patch of the operator (and of the sample).
+    seconds
+        Wall time of the estimate (s).
+    """
+
+    rms: float
+    mean: float
+    patches: int
+    rays_per_patch: int
+    seconds: float
+
+
+def sampled_noise(
+    operator: TransportOperator,
+    patches: Patches,
+    settings: SampledSettings,
+    radiosity: Float[np.ndarray, " patches"],
+    *,
+    caster,
+    triangles: Float[np.ndarray, "tri 3 3"] | None = None,
+    bright=None,
+    sample: int = 4096,
+    runs: int = 64,
+) -> SampledNoise:
+    """The own noise per patch of ``operator`` (built by :func:`~lumijax.radiosity.
+    build_sampled` from ``patches`` with ``settings`` and ``bright``) for the radiosity
+    ``radiosity`` (lm/m², luminous, one value a patch): module docstring.
+
+    ``caster`` traces the rays (the one the operator was built on, or one of the same
+    triangles); ``triangles``: the scene's triangles when the caster does not hold them.
+    ``sample`` patches (all where fewer) in ``runs`` runs; the same arguments give the same
+    figure."""
+    from ._gather import _locator
+    from ._sampled import PatchLocator
+    from ._solve import row_correction
+
+    t0 = time.perf_counter()
+    n = patches.n
+    m = min(sample, n)
+    if m == 0:
+        return SampledNoise(0.0, 0.0, 0, settings.rays_per_patch, 0.0)
+    length = max(1, m // max(1, min(runs, m)))
+    starts = np.unique(np.linspace(0, n - length, max(1, m // length)).round().astype(int))
+    spans = [(int(a), int(a) + length) for a in starts]
+    # one compiled ray kernel for runs of this length, and an independent sample of each row
+    again = dataclasses.replace(settings, seed=settings.seed + 1, batch=length)
+    locator = _locator(patches, caster)
+    if locator is None:
+        locator = PatchLocator(patches, np.asarray(
+            caster.triangles if triangles is None else triangles, np.float64))
+    front = front_normals(patches, caster, locator)
+    # the solve's outgoing-light correction (F_ij → F_ij c_j), as the reported irradiance has it
+    c, _ = row_correction(operator.row_sums())
+    b = np.asarray(radiosity, np.float64).reshape(n) * np.asarray(c, np.float64)
+    x = np.asarray(operator.matmul(jnp.asarray(b[:, None], operator.area.dtype)),
+                   np.float64)[:, 0]
+    area = np.asarray(patches.area, np.float64)
+    rows = np.concatenate([np.arange(a, z) for a, z in spans])
+    again_x = np.zeros(n)
+    for a, z in spans:
+        r, s, w, _ = sample_batch(patches, caster, a, z, again, locator, front, bright)
+        again_x += np.bincount(r, weights=np.asarray(w, np.float64) * b[s], minlength=n)
+    x, again_x, area = x[rows], again_x[rows] / area[rows], area[rows]
+    field = np.sum(area * x**2)
+    if field <= 0:  # nothing lit reaches the sample
+        return SampledNoise(0.0, 0.0, len(rows), settings.rays_per_patch,
+                            time.perf_counter() - t0)
+    rms = float(np.sqrt(np.sum(area * (x - again_x) ** 2) / 2.0 / field))
+    mean = float(np.sum(area * (x - again_x)) / np.sum(area * x))
+    return SampledNoise(rms, mean, len(rows), settings.rays_per_patch, time.perf_counter() - t0)
