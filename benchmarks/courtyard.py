@@ -223,9 +223,11 @@ def main(argv=None) -> None:
                                 f"{r.stats()['iterations']} iterations")
     if args.transport == "sampled":  # the error beside the figures, measured at this scale
         stage("own noise (4,096 patches' rays cast again)",
-              lambda: stg.transport_noise(sc, meshed, transport, radiosity),
+              lambda: stg.transport_noise(sc, meshed, transport, radiosity, rays, sampling),
               lambda n: f"{n.rms:.2%} RMS per patch of the inter-reflected light at "
-                        f"{n.rays_per_patch} rays ({n.patches:,} patches, mean {n.mean:+.2%})")
+                        f"{n.rays_per_patch} rays ({n.patches:,} patches, mean {n.mean:+.2%}); "
+                        + ("" if n.points_rms is None else
+                           f"grid points {n.points_rms:.2%} (first order)"))
     lighting = None
     if meshed.fine is not None:
         gathered = stage("final gather (fine gather rays + reflect)",

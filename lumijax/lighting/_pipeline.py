@@ -80,7 +80,7 @@ def solve_lighting(
                                report("gathering onto grids"))
     radiosity = st.solve(scene, points, normals, emission, direct, meshed, transport, sampling,
                          rays, settings, report("solving inter-reflections"))
-    noise = st.transport_noise(scene, meshed, transport, radiosity)
+    noise = st.transport_noise(scene, meshed, transport, radiosity, rays, sampling)
     gathered = st.gather_fine(scene, emission, direct, meshed, sampling, radiosity, settings)
     sol = st.assemble(scene, points, normals, emission, direct, meshed, transport, sampling,
                       rays, radiosity, gathered, settings, noise)

@@ -413,27 +413,33 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
                      time.perf_counter() - t, sampled=ss, bright=bright)
 
 
-def transport_noise(scene: Scene, meshed: Meshed, transport: Transport,
-                    radiosity: Radiosity) -> SampledNoise | None:
+def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosity: Radiosity,
+                    rays: GatherRays | None = None,
+                    sampling: Sampling | None = None) -> SampledNoise | None:
     """The sampled transport's own noise per patch for the solved radiosity (every group at
     full output, luminous; :func:`~lumijax.radiosity.sampled_noise`: 4,096 patches' rays cast
-    again with another seed), with a warning above :data:`NOISE_WARN` that names the rays a
+    again with another seed) and, given the gather and the patches' reflectance, the grid
+    points' to first order, with a warning above :data:`NOISE_WARN` that names the rays a
     patch for 3 %; None for the block operator."""
     if transport.sampled is None:
         return None
     b = np.asarray(radiosity.shot.radiosity, np.float64).sum(axis=0)
     noise = sampled_noise(transport.operator, meshed.patches, transport.sampled, b,
-                          caster=scene.raycaster, bright=transport.bright)
+                          caster=scene.raycaster, bright=transport.bright,
+                          gather=None if rays is None else rays.gather,
+                          rho=None if sampling is None else sampling.rho)
     if noise.rms > NOISE_WARN:
         n = noise.rays_per_patch
         # the noise falls about as rays^-1/2 (docs/radiosity.md, "Noise, measured")
         enough = int(64 * np.ceil(n * (noise.rms / NOISE_WARN) ** 2 / 64))
+        points = ("" if noise.points_rms is None else
+                  f" (≈ {100 * noise.points_rms:.1f} % at the grid points)")
         warnings.warn(
             f"the sampled transport's own noise is ≈ {100 * noise.rms:.1f} % RMS per patch of "
             f"the inter-reflected light at {n} rays a patch (estimated by casting "
             f"{noise.patches:,} patches' rays again): the light on each patch (patches.vtp, "
             f"the surface maps) carries it, the grid points, which gather from many patches, "
-            f"far less; [solver] rays_per_patch = {enough} would bring it to ≈ 3 %",
+            f"far less{points}; [solver] rays_per_patch = {enough} would bring it to ≈ 3 %",
             LumijaxWarning, stacklevel=3,
         )
     return noise
@@ -552,7 +558,8 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
                  spectral_samples=sampling.spectral.n, **solve_stats)
     if noise is not None:
         stats["sampled_noise"] = dict(rms=noise.rms, mean=noise.mean, patches=noise.patches,
-                                      rays_per_patch=noise.rays_per_patch)
+                                      rays_per_patch=noise.rays_per_patch,
+                                      points_rms=noise.points_rms)
     timing = {"emission": emission.seconds, "direct_points": direct.points_s,
               "mesh": meshed.seconds, "memory_bound": transport.bound_s}
     if transport.partition_s is not None:

@@ -19,7 +19,14 @@ whole operators' difference.
 
 It is the noise of one product F B with B fixed — what a patch's inter-reflected irradiance
 (``patches.vtp``, the surface maps) carries. B itself carries ρ times it, and a grid point
-gathers from hundreds of patches, so the points' noise is far smaller.
+gathers from hundreds of patches, so the points' noise is far smaller. Given the gather and
+the patches' reflectance, the points' is estimated to first order: each patch's noise taken
+independent (its rays are its own) and proportional to its light, σ_j = noise · (F B)_j, so a
+point's inter-reflected illuminance E_p = Σ_j g_pj B_j carries
+
+    σ_p² = Σ_j g_pj² (ρ_j σ_j)²,     points noise = RMS_p σ_p / RMS_p E_p
+
+(the light passed on by further bounces is averaged over many patches again, and left out).
 """
 
 from __future__ import annotations
@@ -32,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
+from ._gather import GatherOperator
 from ._operator import TransportOperator
 from ._patches import Patches
 from ._sampled import SampledSettings, front_normals, sample_batch
@@ -57,6 +65,9 @@ class SampledNoise:
         Rays a patch of the operator (and of the sample).
     seconds
         Wall time of the estimate (s).
+    points_rms
+        The calculation points' noise of their inter-reflected illuminance, RMS over the
+        points relative to the field's (first order: module docstring); None without a gather.
     """
 
     rms: float
@@ -64,6 +75,7 @@ class SampledNoise:
     patches: int
     rays_per_patch: int
     seconds: float
+    points_rms: float | None = None
 
 
 def sampled_noise(
@@ -75,6 +87,8 @@ def sampled_noise(
     caster,
     triangles: Float[np.ndarray, "tri 3 3"] | None = None,
     bright=None,
+    gather: GatherOperator | None = None,
+    rho: Float[np.ndarray, " patches"] | None = None,
     sample: int = 4096,
     runs: int = 64,
 ) -> SampledNoise:
@@ -85,7 +99,8 @@ def sampled_noise(
     ``caster`` traces the rays (the one the operator was built on, or one of the same
     triangles); ``triangles``: the scene's triangles when the caster does not hold them.
     ``sample`` patches (all where fewer) in ``runs`` runs; the same arguments give the same
-    figure."""
+    figure. With ``gather`` (the patches → points :class:`~lumijax.radiosity.GatherOperator`)
+    and ``rho`` (each patch's reflectance, luminous) the points' noise too."""
     from ._gather import _locator
     from ._sampled import PatchLocator
     from ._solve import row_correction
@@ -116,11 +131,27 @@ def sampled_noise(
     for a, z in spans:
         r, s, w, _ = sample_batch(patches, caster, a, z, again, locator, front, bright)
         again_x += np.bincount(r, weights=np.asarray(w, np.float64) * b[s], minlength=n)
-    x, again_x, area = x[rows], again_x[rows] / area[rows], area[rows]
-    field = np.sum(area * x**2)
+    xs, again_x, area = x[rows], again_x[rows] / area[rows], area[rows]
+    field = np.sum(area * xs**2)
     if field <= 0:  # nothing lit reaches the sample
         return SampledNoise(0.0, 0.0, len(rows), settings.rays_per_patch,
                             time.perf_counter() - t0)
-    rms = float(np.sqrt(np.sum(area * (x - again_x) ** 2) / 2.0 / field))
-    mean = float(np.sum(area * (x - again_x)) / np.sum(area * x))
-    return SampledNoise(rms, mean, len(rows), settings.rays_per_patch, time.perf_counter() - t0)
+    rms = float(np.sqrt(np.sum(area * (xs - again_x) ** 2) / 2.0 / field))
+    mean = float(np.sum(area * (xs - again_x)) / np.sum(area * xs))
+    points = None
+    if gather is not None and rho is not None and gather.n_patches == n:
+        points = _points_noise(gather, np.asarray(radiosity, np.float64).reshape(n),
+                               rms * np.asarray(rho, np.float64) * x)
+    return SampledNoise(rms, mean, len(rows), settings.rays_per_patch, time.perf_counter() - t0,
+                        points)
+
+
+def _points_noise(gather: GatherOperator, b, sigma_b) -> float | None:
+    """RMS over the points of ``√(Σ_j g_pj² σ_j²)`` relative to the RMS of ``Σ_j g_pj b_j``
+    (``sigma_b``: each patch's radiosity noise, independent between patches)."""
+    w = np.asarray(gather.weight, np.float64)
+    e = np.bincount(gather.point, weights=w * b[gather.patch], minlength=gather.n_points)
+    var = np.bincount(gather.point, weights=(w * sigma_b[gather.patch]) ** 2,
+                      minlength=gather.n_points)
+    field = np.sqrt(np.mean(e**2)) if len(e) else 0.0
+    return float(np.sqrt(np.mean(var)) / field) if field > 0 else None
