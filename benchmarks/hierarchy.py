@@ -433,6 +433,7 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
         b_ref = np.asarray(b_dense, np.float64)[:, 0]
         for n in args.rays:
             _noise_split(p, tri, caster, n, b_ref, ref, rho, np.asarray(b0)[:, 0], open_)
+            _points_noise_check(p, tri, caster, n, rho, b0)
 
 
 def _links(op, p):
@@ -515,6 +516,40 @@ def _noise_split(p, tri, caster, rays, b, ref, rho, b0, open_) -> None:
         x = indirect(m)
         (ma, ra), (mo, ro) = cmp(x, slice(None)), cmp(x)
         print(f"| {label} | {ma:+.2%}, {ra:.2%} | {mo:+.2%}, {ro:.2%} |", flush=True)
+
+
+def _points_noise_check(p, tri, caster, rays, rho, b0, points: int = 600) -> None:
+    """The grid points' noise as a study states it (``radiosity/_noise.py``, first order)
+    against its definition: two operators of different seeds, each solved and gathered onto
+    ``points`` points 0.8 m over the ground (by one gather of 512 rays)."""
+    import jax.numpy as jnp
+
+    from lumijax.radiosity import (
+        SampledSettings,
+        build_gather,
+        build_sampled,
+        sampled_noise,
+        solve_radiosity,
+    )
+
+    c, nrm = np.asarray(p.centroid), np.asarray(p.normal)
+    ground = np.flatnonzero((nrm[:, 2] > 0.99) & (c[:, 2] < 0.01))
+    at = c[ground[np.linspace(0, len(ground) - 1, points).astype(int)]] + [0.0, 0.0, 0.8]
+    g = build_gather(at, np.tile([0.0, 0.0, 1.0], (len(at), 1)), p, caster, rays=512)
+    e, first = [], None
+    for seed in (0, 1):
+        op = build_sampled(p, tri, SampledSettings(rays_per_patch=rays, seed=seed),
+                           caster=caster)
+        b = np.asarray(solve_radiosity(op, jnp.asarray(rho, jnp.float32), b0).value,
+                       np.float64)[:, 0]
+        e.append(np.asarray(g(jnp.asarray(b[:, None], jnp.float32)), np.float64)[:, 0])
+        first = first or (op, b)
+    whole = np.sqrt(np.mean((e[0] - e[1]) ** 2) / 2 / np.mean(e[0] ** 2))
+    est = sampled_noise(first[0], p, SampledSettings(rays_per_patch=rays), first[1],
+                        caster=caster, gather=g, rho=rho)
+    print(f"\n{rays} cosine rays, {len(at)} points 0.8 m over the ground: their noise from two "
+          f"whole solves {whole:.3%}, estimated (first order) {est.points_rms:.3%}; the "
+          f"patches' {est.rms:.2%}", flush=True)
 
 
 def _fine_check(p, caster, dense, sampled, x, rays, ref, b, open_, k: int) -> None:
