@@ -86,7 +86,9 @@ def main(argv=None) -> None:
     p.add_argument("--operator-patches", type=int, default=None,
                    help="elements of the two-level operator (default: the study's; 0: one level)")
     p.add_argument("--transport", choices=("blocks", "sampled"), default="blocks")
-    p.add_argument("--rays-per-patch", type=int, default=256, help="sampled transport")
+    p.add_argument("--rays-per-patch", type=lambda v: v if v == "auto" else int(v), default=256,
+                   help="sampled transport: rays a patch, or auto (as many as ≈ 3 %% noise per "
+                        "patch needs, at most what fits)")
     p.add_argument("--aimed-share", type=float, default=0.25,
                    help="sampled transport: the share of rays aimed at the lit patches")
     p.add_argument("--stop-after", default=None, help="stage name to stop after")

@@ -133,7 +133,7 @@ def check_memory(study: Study):
     if settings.transport == "sampled":
         from .radiosity._estimate import bound_sampled_memory
 
-        return bound_sampled_memory(patches.n, settings.rays_per_patch, itemsize=itemsize,
+        return bound_sampled_memory(patches.n, settings.first_rays, itemsize=itemsize,
                                     file=study.config.source)
     estimate, _ = bound_operator_memory(
         patches, max_block=block_size(settings.max_block, patches.n), itemsize=itemsize,

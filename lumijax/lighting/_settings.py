@@ -9,7 +9,7 @@ import numpy as np
 __all__ = ["SolverSettings", "auto_patch_size", "mean_free_path", "source_distance",
            "accuracy_patch_size", "AUTO_PATCH_CAP", "PATCH_SIZE_PER_PATH",
            "PATCH_SIZE_PER_SOURCE_DISTANCE", "GATHER_RAYS", "MOST_GATHER_RAYS",
-           "GATHER_RAY_BUDGET", "gather_rays_for"]
+           "GATHER_RAY_BUDGET", "gather_rays_for", "AUTO_FIRST_RAYS"]
 
 #: Most patches the accuracy rule asks for (the fixed default before it; docs/radiosity.md,
 #: "Patch count against an accuracy target"): an explicit ``target_patches`` goes beyond.
@@ -28,6 +28,10 @@ _SOURCE_RAYS = 128  # directions from each luminaire (a Fibonacci sphere)
 _LIT = 0.05  # a direction counts when its intensity is at least this fraction of the peak
 
 _MFP_RAYS = 4096  # rays of the mean-free-path estimate: its own spread ~1 % (σ/√n of chords)
+
+#: ``rays_per_patch = "auto"``: the rays a patch of the first build, whose measured noise sets
+#: the count of the second (the default count: a broadly lit court reads ≈ 7 % there).
+AUTO_FIRST_RAYS = 256
 
 
 @dataclass(frozen=True)
@@ -54,8 +58,24 @@ class SolverSettings:
     refine_threshold: float = 0.5
     operator_patches: int | None = None  # two levels: elements for the operator (docs/radiosity.md)
     transport: str = "blocks"  # "sampled": ray-sampled form factors (radiosity/_sampled.py)
-    rays_per_patch: int = 256  # rays cast from each patch by the sampled transport
+    # rays cast from each patch by the sampled transport; "auto": as many as ≈ 3 % noise per
+    # patch needs, at most what fits (docs/radiosity.md, "Own noise, stated with every run")
+    rays_per_patch: int | str = 256
     aimed_share: float = 0.25  # of those, aimed at the lit patches (radiosity/_bright.py)
+
+    @property
+    def first_rays(self) -> int:
+        """The rays a patch of the sampled transport's first build: ``rays_per_patch``, or
+        :data:`AUTO_FIRST_RAYS` where it is ``"auto"`` (whose noise decides the rest)."""
+        n = self.rays_per_patch
+        if n == "auto":
+            return AUTO_FIRST_RAYS
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 16 <= n <= 65536:
+            from ..errors import SolveError
+
+            raise SolveError(f"rays_per_patch must be an integer from 16 to 65,536 or \"auto\", "
+                             f"not {n!r}", key="solver.rays_per_patch")
+        return int(n)
 
     def gather_rays_for(self, receivers: int) -> int:
         """Rays per receiver of a gather onto ``receivers`` points (:func:`gather_rays_for`)."""

@@ -44,7 +44,11 @@ from ..radiosity import (
     refine_patches,
     sampled_noise,
 )
-from ..radiosity._estimate import bound_operator_memory, check_before_meshing
+from ..radiosity._estimate import (
+    bound_operator_memory,
+    bound_sampled_memory,
+    check_before_meshing,
+)
 from ..radiosity._final_gather import FineLevel, element_direct, final_gather
 from ..scene import AreaSource, Luminaire, Network, Scene
 from ..spectral import Spectrum
@@ -379,7 +383,7 @@ def _sampled_bound(scene: Scene, patches: Patches, settings: SolverSettings, dty
     # the solve's columns too (one batch at least, and every column's result on the host):
     # one group per network and sample wavelength, the fewest the solve can have
     columns = len(scene.networks) * max(settings.spectral_samples, 1)
-    return bound_sampled_memory(patches.n, settings.rays_per_patch,
+    return bound_sampled_memory(patches.n, settings.first_rays,
                                 itemsize=np.dtype(dtype).itemsize, file=scene.source,
                                 columns=columns)
 
@@ -395,22 +399,55 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
     estimate = _sampled_bound(scene, patches, settings, dtype)
     bound_s = time.perf_counter() - t0
     t = time.perf_counter()
-    ss = SampledSettings(rays_per_patch=settings.rays_per_patch,
-                         aimed_share=settings.aimed_share)
+    ss = SampledSettings(rays_per_patch=settings.first_rays, aimed_share=settings.aimed_share)
     bright = (None if direct is None or direct.patches is None or settings.aimed_share == 0
               else bright_patches(direct.patches * patches.area, patches))
-    hit: bool | None = None
-    if cache_dir is not None:
+
+    def build(ss):
+        if cache_dir is None:
+            return build_sampled(patches, scene.triangles.vertices, ss, caster=scene.raycaster,
+                                 dtype=dtype, progress=report, bright=bright), None
         operator, hit = cached_sampled_operator(patches, scene.triangles.vertices, ss,
                                                 cache_dir=cache_dir, dtype=dtype,
                                                 caster=scene.raycaster, progress=report,
                                                 bright=bright)
-        hit = bool(hit)
-    else:
-        operator = build_sampled(patches, scene.triangles.vertices, ss, caster=scene.raycaster,
-                                 dtype=dtype, progress=report, bright=bright)
+        return operator, bool(hit)
+
+    operator, hit = build(ss)
+    if settings.rays_per_patch == "auto" and direct is not None and direct.patches is not None:
+        rays = _rays_for_noise(scene, patches, settings, operator, ss, bright, direct, dtype)
+        if rays > ss.rays_per_patch:
+            ss = dataclasses.replace(ss, rays_per_patch=rays)
+            estimate = bound_sampled_memory(
+                patches.n, rays, itemsize=np.dtype(dtype).itemsize, file=scene.source,
+                columns=len(scene.networks) * max(settings.spectral_samples, 1))
+            del operator  # its links, before the second build's
+            operator, hit = build(ss)
     return Transport(operator, hit, int(estimate.stored_bytes), bound_s, None,
                      time.perf_counter() - t, sampled=ss, bright=bright)
+
+
+def _rays_for_noise(scene: Scene, patches: Patches, settings: SolverSettings, operator, ss,
+                    bright, direct: DirectLight, dtype) -> int:
+    """``rays_per_patch = "auto"``: the rays a patch for 0.9 × :data:`NOISE_WARN` noise per patch,
+    from the first build's (:func:`~lumijax.radiosity.sampled_noise` for a one-column solve:
+    every group's direct light at full output, luminous), at most what fits in memory beside
+    the solve and 65,536. The noise falls about as rays^-1/2 (docs/radiosity.md)."""
+    import jax.numpy as jnp
+
+    from ..radiosity import solve_radiosity
+    from ..radiosity._estimate import sampled_rays_that_fit
+
+    rho = np.array([m.luminous_reflectance for m in scene.materials])[patches.material]
+    b0 = rho * np.asarray(direct.patches, np.float64).sum(axis=0)
+    b = solve_radiosity(operator, jnp.asarray(rho, dtype), jnp.asarray(b0[:, None], dtype)).value
+    noise = sampled_noise(operator, patches, ss, np.asarray(b, np.float64)[:, 0],
+                          caster=scene.raycaster, bright=bright)
+    # aimed a tenth below the warning, so that the second build's own sample lands under it
+    want = int(64 * np.ceil(ss.rays_per_patch * (noise.rms / (0.9 * NOISE_WARN)) ** 2 / 64))
+    fit = sampled_rays_that_fit(patches.n, itemsize=np.dtype(dtype).itemsize,
+                                columns=len(scene.networks) * max(settings.spectral_samples, 1))
+    return int(min(want, fit, 65536))
 
 
 def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosity: Radiosity,

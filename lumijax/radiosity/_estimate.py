@@ -34,6 +34,7 @@ __all__ = [
     "available_memory_bytes",
     "block_sizes",
     "bound_sampled_memory",
+    "sampled_rays_that_fit",
     "solve_column_batch",
     "solve_column_bytes",
     "check_operator_memory",
@@ -354,11 +355,8 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
         peak = max(peak, stored + solve_memory_bytes(n_patches, columns, 1, itemsize))
     est = OperatorEstimate(int(n_patches), 1, 0, stored, peak, visible_only=False)
     if est.peak_bytes > available:
-        per_ray = (8 + itemsize) * max(int(n_patches), 1)
-        fit = int(0.9 * available / (2 * per_ray))
-        if columns is not None:  # the links beside the solve's least memory fit too
-            least = solve_memory_bytes(n_patches, columns, 1, itemsize)
-            fit = min(fit, int((0.9 * available - least) / per_ray))
+        fit = sampled_rays_that_fit(n_patches, itemsize=itemsize, available=available,
+                                    columns=columns)
         fix = (f"set [solver] rays_per_patch ≤ {fit:,}" if fit >= 16 else
                "set a larger [solver] patch_size (fewer patches)")
         solve = "" if columns is None else f" with the solve of {int(columns):,} columns"
@@ -367,6 +365,20 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
             f"would need up to {_gib(est.peak_bytes)}, and {_gib(available)} of memory is "
             f"available: {fix}", file=file, key="solver.rays_per_patch")
     return est
+
+
+def sampled_rays_that_fit(n_patches: int, *, itemsize: int = 4, available: int | None = None,
+                          columns: int | None = None) -> int:
+    """The most rays a patch whose sampled operator :func:`bound_sampled_memory` accepts: its
+    bound (every ray a link, twice while assembled), and beside the solve's least memory
+    (``columns``), within 90 % of ``available`` (default: this machine's)."""
+    available = available_memory_bytes() if available is None else int(available)
+    per_ray = (8 + itemsize) * max(int(n_patches), 1)
+    fit = int(0.9 * available / (2 * per_ray))
+    if columns is not None:  # the links beside the solve's least memory fit too
+        least = solve_memory_bytes(n_patches, columns, 1, itemsize)
+        fit = min(fit, int((0.9 * available - least) / per_ray))
+    return fit
 
 
 #: Patch-length vectors of the solve's precision alive per column while it runs (BiCGStab's and

@@ -97,14 +97,10 @@ def test_the_points_noise_against_two_whole_solves():
     assert whole * 0.6 < est.points_rms < whole * 1.5
 
 
-def test_a_sampled_study_states_its_noise_and_names_the_rays_that_would_lower_it(write_study):
+def _low_lamp_box(transport, rays):
     import helpers as h
 
-    import lumijax
-    from lumijax import load_study
-
-    def room(transport):
-        return h.study_text(
+    return h.study_text(
             h.material("wall", 0.7), h.material("floor", 0.3),
             h.photometry("down", "lambertian", 2000), h.network("a", 1.0),
             # a lamp 0.3 m over the floor: a pool of light, a peaky first bounce (hung at
@@ -112,7 +108,15 @@ def test_a_sampled_study_states_its_noise_and_names_the_rays_that_would_lower_it
             h.box([0, 0, 0], [4, 3, 2.5]), h.lamp("A1", [1, 1.5, 0.3], "a", "down"),
             h.plane_grid("wp", [0.2, 0.2, 0.8], [3.6, 0, 0], [0, 2.6, 0], nu=4, nv=3),
             h.table("solver", patch_size=0.5, spectral_samples=0, transport=transport,
-                    rays_per_patch=32, aimed_share=0.0))
+                    rays_per_patch=rays, aimed_share=0.0))
+
+
+def test_a_sampled_study_states_its_noise_and_names_the_rays_that_would_lower_it(write_study):
+    import lumijax
+    from lumijax import load_study
+
+    def room(transport):
+        return _low_lamp_box(transport, 32)
 
     with pytest.warns(LumijaxWarning, match=r"rays_per_patch = \d+ would bring it to ≈ 3 %"):
         sol = lumijax.compute(load_study(write_study(room("sampled"), "s.toml"))).lighting
@@ -122,3 +126,28 @@ def test_a_sampled_study_states_its_noise_and_names_the_rays_that_would_lower_it
     assert sol.stats["timing_s"]["sampled_noise"] > 0
     blocks = lumijax.compute(load_study(write_study(room("blocks"), "b.toml"))).lighting
     assert "sampled_noise" not in blocks.stats
+
+
+def test_auto_rays_reach_the_noise_target(write_study):
+    import warnings
+
+    import lumijax
+    from lumijax import load_study
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=".*own noise", category=LumijaxWarning)
+        sol = lumijax.compute(load_study(write_study(_low_lamp_box("sampled", "auto")))).lighting
+    noise = sol.stats["sampled_noise"]
+    # the first build's 256 rays read ≈ 7 %: the second casts about (7 / 2.7)² times as many
+    print(noise)
+    assert noise["rays_per_patch"] > 256 and noise["rays_per_patch"] % 64 == 0
+    assert noise["rms"] < 0.03
+
+
+@pytest.mark.parametrize("bad", ["many", 8, 1.5])
+def test_a_bad_ray_count_names_the_key(write_study, bad):
+    from lumijax import load_study
+    from lumijax.errors import LumijaxError
+
+    with pytest.raises(LumijaxError, match="rays_per_patch"):
+        load_study(write_study(_low_lamp_box("sampled", bad)))
