@@ -27,6 +27,7 @@ from ..direct import DirectLighting, direct_illuminance
 from ..errors import LumijaxWarning
 from ..parallel import current_executor, release_freed_memory, threaded_map
 from ..radiosity import (
+    BrightPatches,
     GatherOperator,
     PartitionSettings,
     Patches,
@@ -201,7 +202,7 @@ class Transport:
     partition_s: float | None
     seconds: float
     sampled: SampledSettings | None = None
-    bright: object | None = None
+    bright: BrightPatches | None = None
 
 
 @dataclass(frozen=True, eq=False)
