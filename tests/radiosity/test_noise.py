@@ -6,7 +6,6 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 import pytest
-import trimesh
 
 from lumijax.errors import LumijaxWarning
 from lumijax.radiosity import (
@@ -19,17 +18,13 @@ from lumijax.radiosity import (
 )
 from lumijax.scene._raycast import RayCaster
 
+from .test_sampled import _furnished_triangles
+
 
 def _room():
-    """A 4 × 3 × 2.8 m room with a desk and a partition, lit by a downlight (as
-    test_sampled.py's furnished room): a peaky first bounce, the noisiest case."""
-    m = trimesh.creation.box(extents=(4.0, 3.0, 2.8))
-    m.invert()
-    desk = trimesh.creation.box(extents=(1.2, 0.8, 0.05))
-    desk.apply_translation([0.5, 0.3, -0.65])
-    wall = trimesh.creation.box(extents=(0.05, 1.5, 1.4))
-    wall.apply_translation([-0.8, -0.4, -0.7])
-    tri = np.concatenate([m.triangles, desk.triangles, wall.triangles])
+    """test_sampled.py's furnished room (4 × 3 × 2.8 m, a desk and a partition) lit by a
+    downlight: a peaky first bounce, the noisiest case."""
+    tri = _furnished_triangles()
     p = mesh_patches(tri, patch_size=0.3)
     d = np.array([1.0, 0.5, 1.2]) - p.centroid
     r2 = np.sum(d * d, axis=1)
