@@ -467,9 +467,18 @@ def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosit
                           gather=None if rays is None else rays.gather,
                           rho=None if sampling is None else sampling.rho)
     if noise.rms > NOISE_WARN:
+        from ..radiosity._estimate import sampled_rays_that_fit
+
         n = noise.rays_per_patch
         # the noise falls about as rays^-1/2 (docs/radiosity.md, "Noise, measured")
         enough = int(64 * np.ceil(n * (noise.rms / NOISE_WARN) ** 2 / 64))
+        fit = sampled_rays_that_fit(
+            meshed.patches.n, itemsize=np.dtype(transport.operator.area.dtype).itemsize,
+            columns=len(scene.networks) * max(1 if sampling is None else sampling.spectral.n, 1))
+        fix = (f"[solver] rays_per_patch = {enough} would bring it to ≈ 3 %" if enough <= fit
+               else f"≈ 3 % would take ≈ {enough:,} rays a patch and at most {fit:,} fit in "
+                    "this machine's memory: a larger [solver] patch_size (fewer patches) or "
+                    "more memory")
         points = ("" if noise.points_rms is None else
                   f" (≈ {100 * noise.points_rms:.1f} % at the grid points)")
         warnings.warn(
@@ -477,7 +486,7 @@ def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosit
             f"the inter-reflected light at {n} rays a patch (estimated by casting "
             f"{noise.patches:,} patches' rays again): the light on each patch (patches.vtp, "
             f"the surface maps) carries it, the grid points, which gather from many patches, "
-            f"far less{points}; [solver] rays_per_patch = {enough} would bring it to ≈ 3 %",
+            f"far less{points}; {fix}",
             LumijaxWarning, stacklevel=3,
         )
     return noise

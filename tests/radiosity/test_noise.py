@@ -146,3 +146,15 @@ def test_a_bad_ray_count_names_the_key(write_study, bad):
 
     with pytest.raises(LumijaxError, match="rays_per_patch"):
         load_study(write_study(_low_lamp_box("sampled", bad)))
+
+
+def test_the_warning_says_when_the_rays_for_3_percent_do_not_fit(write_study, monkeypatch):
+    import lumijax
+    from lumijax import load_study
+    from lumijax.radiosity import _estimate
+
+    study = load_study(write_study(_low_lamp_box("sampled", 32)))
+    # a machine with 32 MiB: 32 rays a patch fit, the ≈ 2,500 that 3 % would take do not
+    monkeypatch.setattr(_estimate, "available_memory_bytes", lambda: 32 * 2**20)
+    with pytest.warns(LumijaxWarning, match=r"at most [\d,]+ fit in this machine's memory"):
+        lumijax.compute(study)
