@@ -113,9 +113,17 @@ def test_a_sampled_study_states_its_noise_and_names_the_rays_that_would_lower_it
     def room(transport):
         return _low_lamp_box(transport, 32)
 
+    study = load_study(write_study(room("sampled"), "s.toml"))
     with pytest.warns(LumijaxWarning, match=r"rays_per_patch = \d+ would bring it to ≈ 3 %"):
-        sol = lumijax.compute(load_study(write_study(room("sampled"), "s.toml"))).lighting
+        results = lumijax.compute(study)
+    sol = results.lighting
     noise = sol.stats["sampled_noise"]
+    # and the report's footer states it beside the figures
+    from lumijax.report._html import render_report, report_context
+
+    html = render_report(report_context(study, results, pictures=False))
+    assert (f"32 rays a patch, own noise ≈ {100 * noise['rms']:.1f} % RMS per patch, "
+            f"≈ {100 * noise['points_rms']:.1f} % at the grid points") in html
     assert noise["rays_per_patch"] == 32 and noise["patches"] == sol.coarse.patches.n
     assert 0.03 < noise["rms"] < 1.0
     assert sol.stats["timing_s"]["sampled_noise"] > 0
