@@ -439,16 +439,27 @@ def _rays_for_noise(scene: Scene, patches: Patches, settings: SolverSettings, op
     from ..radiosity import solve_radiosity
     from ..radiosity._estimate import sampled_rays_that_fit
 
-    rho = np.array([m.luminous_reflectance for m in scene.materials])[patches.material]
+    rho = _luminous_rho(scene, patches)
     b0 = rho * np.asarray(direct.patches, np.float64).sum(axis=0)
     b = solve_radiosity(operator, jnp.asarray(rho, dtype), jnp.asarray(b0[:, None], dtype)).value
     noise = sampled_noise(operator, patches, ss, np.asarray(b, np.float64)[:, 0],
                           caster=scene.raycaster, bright=bright)
     # aimed a tenth below the warning, so that the second build's own sample lands under it
-    want = int(64 * np.ceil(ss.rays_per_patch * (noise.rms / (0.9 * NOISE_WARN)) ** 2 / 64))
+    want = _rays_for(ss.rays_per_patch, noise.rms, 0.9 * NOISE_WARN)
     fit = sampled_rays_that_fit(patches.n, itemsize=np.dtype(dtype).itemsize,
                                 columns=len(scene.networks) * max(settings.spectral_samples, 1))
     return int(min(want, fit, 65536))
+
+
+def _luminous_rho(scene: Scene, patches: Patches) -> Float[np.ndarray, " patches"]:
+    """Each patch's luminous reflectance (its material's)."""
+    return np.array([m.luminous_reflectance for m in scene.materials])[patches.material]
+
+
+def _rays_for(rays: int, noise: float, target: float) -> int:
+    """The rays a patch for ``target`` noise, given ``noise`` at ``rays``, rounded up to 64:
+    the noise falls about as rays^-1/2 (docs/radiosity.md, "Noise, measured")."""
+    return int(64 * np.ceil(rays * (noise / target) ** 2 / 64))
 
 
 def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosity: Radiosity,
@@ -470,8 +481,7 @@ def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosit
         from ..radiosity._estimate import sampled_rays_that_fit
 
         n = noise.rays_per_patch
-        # the noise falls about as rays^-1/2 (docs/radiosity.md, "Noise, measured")
-        enough = int(64 * np.ceil(n * (noise.rms / NOISE_WARN) ** 2 / 64))
+        enough = _rays_for(n, noise.rms, NOISE_WARN)
         fit = sampled_rays_that_fit(
             meshed.patches.n, itemsize=np.dtype(transport.operator.area.dtype).itemsize,
             columns=len(scene.networks) * max(1 if sampling is None else sampling.spectral.n, 1))
@@ -521,7 +531,7 @@ def light_patches(direct: DirectLight, emission: Emission, meshed: Meshed,
 def sample_spectra(scene: Scene, meshed: Meshed, settings: SolverSettings) -> Sampling:
     """The sample wavelengths of the solve (``spectral_samples``; 0 photometric) and the
     reflectances of the operator's patches."""
-    rho = np.array([m.luminous_reflectance for m in scene.materials])[meshed.patches.material]
+    rho = _luminous_rho(scene, meshed.patches)
     t = time.perf_counter()
     spectral = SpectralSetup.build(scene, meshed.patches.material, settings.spectral_samples)
     return Sampling(spectral, rho, time.perf_counter() - t)
