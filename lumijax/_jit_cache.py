@@ -27,7 +27,7 @@ import warnings
 from pathlib import Path
 
 __all__ = ["ENV", "MIN_COMPILE_S", "cache_dir", "enable_compilation_cache", "to_device",
-           "host_cast", "size_class", "VerifiedFileCache"]
+           "host_cast", "host_empty", "HOST_ALIGN", "size_class", "VerifiedFileCache"]
 
 ENV = "LUMIJAX_JAX_CACHE"
 """Environment variable: a folder for the cache, or ``0``/``off``/``false``/``no``/empty."""
@@ -238,6 +238,24 @@ def to_device(x, dtype=None):
     if host is None:
         return jnp.asarray(x) if dtype is None else jnp.asarray(x, dtype)
     return jax.device_put(host)
+
+
+#: Alignment (bytes) at which JAX's CPU client adopts a host buffer instead of copying it.
+HOST_ALIGN = 64
+
+
+def host_empty(n: int, dtype):
+    """An uninitialised 1-D numpy array of ``n`` items that :func:`to_device` hands to JAX
+    without a copy on the CPU (``jax.device_put`` adopts a buffer aligned to
+    :data:`HOST_ALIGN` bytes, and copies any other). An operator of 10⁹ links (12 GB) is then
+    held once, not twice while it is assembled (benchmarks/RESULTS.md, session 34). Write it
+    before it is handed over and never after: JAX reads the same memory."""
+    import numpy as np
+
+    dtype = np.dtype(dtype)
+    raw = np.empty(int(n) * dtype.itemsize + HOST_ALIGN, np.uint8)
+    skip = -raw.ctypes.data % HOST_ALIGN
+    return raw[skip:skip + int(n) * dtype.itemsize].view(dtype)
 
 
 def host_cast(x, dtype=None):

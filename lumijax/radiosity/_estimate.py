@@ -343,16 +343,15 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
     """Bound the ray-sampled operator (``_sampled.py``) before its first ray, or refuse it.
 
     Every ray a distinct link is the most it can store: ``(8 + itemsize)`` bytes (two int32
-    indices and the weight) × rays × patches; the peak is twice that (the host arrays and
-    their device copy while the operator is assembled). ``columns`` (networks × wavelengths):
-    the solve that follows counts too, the operator plus :func:`solve_memory_bytes` of its
-    smallest batch, when that is the larger. Raises :class:`SolveError` naming the
-    ``rays_per_patch`` that would fit."""
+    indices and the weight) × rays × patches, held once (JAX adopts the host arrays the links
+    are written into: ``_jit_cache.host_empty``). ``columns`` (networks × wavelengths): the
+    solve that follows counts too, :func:`solve_memory_bytes` of its smallest batch beside
+    the operator. Raises :class:`SolveError` naming the ``rays_per_patch`` that would fit."""
     available = available_memory_bytes() if available is None else int(available)
     stored = (8 + itemsize) * int(n_patches) * int(rays_per_patch)
-    peak = 2 * stored
+    peak = stored
     if columns is not None:
-        peak = max(peak, stored + solve_memory_bytes(n_patches, columns, 1, itemsize))
+        peak += solve_memory_bytes(n_patches, columns, 1, itemsize)
     est = OperatorEstimate(int(n_patches), 1, 0, stored, peak, visible_only=False)
     if est.peak_bytes > available:
         fit = sampled_rays_that_fit(n_patches, itemsize=itemsize, available=available,
@@ -370,15 +369,12 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
 def sampled_rays_that_fit(n_patches: int, *, itemsize: int = 4, available: int | None = None,
                           columns: int | None = None) -> int:
     """The most rays a patch whose sampled operator :func:`bound_sampled_memory` accepts: its
-    bound (every ray a link, twice while assembled), and beside the solve's least memory
-    (``columns``), within 90 % of ``available`` (default: this machine's)."""
+    bound (every ray a link) beside the solve's least memory (``columns``), within 90 % of
+    ``available`` (default: this machine's)."""
     available = available_memory_bytes() if available is None else int(available)
     per_ray = (8 + itemsize) * max(int(n_patches), 1)
-    fit = int(0.9 * available / (2 * per_ray))
-    if columns is not None:  # the links beside the solve's least memory fit too
-        least = solve_memory_bytes(n_patches, columns, 1, itemsize)
-        fit = min(fit, int((0.9 * available - least) / per_ray))
-    return fit
+    least = 0 if columns is None else solve_memory_bytes(n_patches, columns, 1, itemsize)
+    return int((0.9 * available - least) / per_ray)
 
 
 #: Patch-length vectors of the solve's precision alive per column while it runs (BiCGStab's and

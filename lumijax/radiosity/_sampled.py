@@ -47,7 +47,7 @@ import numpy as np
 from jaxtyping import Float, Int
 
 from .. import _executables
-from .._jit_cache import size_class
+from .._jit_cache import host_empty, size_class, to_device
 from ..errors import GeometryError, SolveError
 from ._bright import BrightPatches, aimed_rays, aimed_samples, balance_weight
 from ._gather import _cosine_directions, _frames, merged_links
@@ -662,8 +662,7 @@ def build_sampled(
             progress(b, patches.n)
     recv, src, weight, chunk = links.padded(patches.n)
     n, rays, ray_s = links.n, links.rays, links.ray_s
-    bucket = SampledBucket(jnp.asarray(weight), jnp.asarray(recv), jnp.asarray(src),
-                           chunk=chunk)
+    bucket = SampledBucket(to_device(weight), to_device(recv), to_device(src), chunk=chunk)
     build_s = time.perf_counter() - t0
     info = Info(patches=patches.n, blocks=1, transport="sampled", links=n,
                 links_per_patch=n / max(patches.n, 1), rays=rays, ray_time_s=ray_s,
@@ -681,13 +680,15 @@ class _Links:
     The arrays are reserved for every ray a link (:func:`sampled_bytes`) but only the pages
     written become resident; the copies overlap the batches still tracing instead of
     following them all (at 1.9·10⁵ patches that tail was 0.9–3.8 s, mostly first touches of
-    fresh memory, which cost this project's VM ~3 ms a MiB: benchmarks/RESULTS.md)."""
+    fresh memory, which cost this project's VM ~3 ms a MiB: benchmarks/RESULTS.md). They are
+    aligned for JAX to adopt (:func:`~lumijax._jit_cache.host_empty`): on the CPU the
+    operator is these arrays, not a copy of them."""
 
     def __init__(self, most: int, dtype) -> None:
         most += _STEP  # and the padding of the last whole chunk
-        self.recv = np.empty(most, np.int32)
-        self.src = np.empty(most, np.int32)
-        self.weight = np.empty(most, dtype)
+        self.recv = host_empty(most, np.int32)
+        self.src = host_empty(most, np.int32)
+        self.weight = host_empty(most, dtype)
         self.n, self.rays, self.ray_s = 0, 0, 0.0
 
     def add(self, r, c, w, counts: dict) -> None:

@@ -38,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._atomic import atomic_path
-from .._jit_cache import to_device
+from .._jit_cache import host_empty, to_device
 from ..errors import OutputError
 from ._operator import Bucket, Info, LowRankBucket, SampledBucket, TransportOperator
 
@@ -218,7 +218,7 @@ def write_operator(path: str | Path, op: TransportOperator, *, key: str | None =
     return Path(path)
 
 
-def _read_bytes(path: Path) -> bytearray:
+def _read_bytes(path: Path) -> np.ndarray:
     # O_NONBLOCK: a FIFO planted under the cache file's name must not hang the run
     flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
     try:
@@ -230,8 +230,10 @@ def _read_bytes(path: Path) -> bytearray:
         if not stat.S_ISREG(st.st_mode):
             raise OperatorFileError("not a regular file", file=path)
         with open(fd, "rb", closefd=False) as f:
-            buf = bytearray(st.st_size)
-            n = f.readinto(buf)
+            # aligned, so the arrays read are adopted by JAX, not copied (one operator in
+            # memory, not two, while it loads: _jit_cache.host_empty)
+            buf = host_empty(st.st_size, np.uint8)
+            n = f.readinto(memoryview(buf))
     except OSError as e:
         raise OperatorFileError(f"cannot read the operator: {e.strerror or e}", file=path) from None
     finally:
@@ -335,7 +337,7 @@ def _sampled_bucket(f: dict, chunk: int, k: int, n_p: int, path: Path) -> Sample
            f"bucket {k}: a patch index outside 0..n_patches", path)
     _check(_all_finite(f["weight"]) and (n == 0 or float(f["weight"].min()) >= 0),
            f"bucket {k}: weights must be finite and >= 0", path)
-    return SampledBucket(*(jnp.asarray(f[name]) for name in _FIELDS["sampled"]), chunk=chunk)
+    return SampledBucket(*(to_device(f[name]) for name in _FIELDS["sampled"]), chunk=chunk)
 
 
 def read_operator(path: str | Path, *, key: str | None = None,
@@ -347,7 +349,7 @@ def read_operator(path: str | Path, *, key: str | None = None,
     """
     path = Path(path)
     buf = _read_bytes(path)
-    if len(buf) < 56 or buf[:16] != _MAGIC:
+    if len(buf) < 56 or bytes(buf[:16]) != _MAGIC:
         raise OperatorFileError("not a lumijax operator file, or truncated", file=path)
     mv = memoryview(buf)
     secret = cache_secret() if secret is None else secret
