@@ -440,9 +440,8 @@ def _links(op, p):
     """The sampled operator's F as a SciPy CSR matrix (float64)."""
     import scipy.sparse as sparse
 
-    b = op.buckets[0]
-    w, r, c = (np.asarray(x) for x in (b.weight, b.recv, b.src))
-    keep = r < p.n  # not the padding
+    r, c, w = op.buckets[0].links()
+    keep = (r < p.n) & (c < p.n)  # not the padding
     area = np.asarray(p.area, np.float64)
     return sparse.csr_matrix((w[keep] / area[r[keep]], (r[keep], c[keep])), shape=(p.n, p.n))
 

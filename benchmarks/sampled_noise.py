@@ -92,14 +92,7 @@ def main() -> None:
 
     def from_links(like, g):
         g = g.tocoo()
-        order = np.lexsort((g.col, g.row))
-        r, c, w = g.row[order], g.col[order], g.data[order]
-        chunk = max(1, min(1 << 16, len(w)))
-        pad = -(-len(w) // chunk) * chunk - len(w)
-        fill = lambda x, v, dt: np.concatenate([x, np.full(pad, v)]).astype(dt)  # noqa: E731
-        bucket = SampledBucket(jnp.asarray(fill(w, 0, np.float32)),
-                               jnp.asarray(fill(r, p.n, np.int32)),
-                               jnp.asarray(fill(c, p.n, np.int32)), chunk=chunk)
+        bucket = SampledBucket.from_links(g.row, g.col, g.data, p.n)
         return TransportOperator((bucket,), like.area, like.block_of, like.n_patches, 1,
                                  like.info)
 
@@ -114,10 +107,8 @@ def main() -> None:
         t = time.perf_counter()
         op = build_sampled(p, tri, SampledSettings(rays_per_patch=n_rays, seed=args.seed))
         build_s = time.perf_counter() - t
-        bk = op.buckets[0]
-        g = sp.coo_matrix((np.asarray(bk.weight, np.float64),
-                           (np.asarray(bk.recv), np.asarray(bk.src))),
-                          shape=(p.n + 1, p.n + 1)).tocsr()[:p.n, :p.n]
+        r, c, w = op.buckets[0].links()
+        g = sp.coo_matrix((w, (r, c)), shape=(p.n + 1, p.n + 1)).tocsr()[:p.n, :p.n]
         rows = np.asarray(g.sum(1)).ravel()
         s = ((g + g.T) * 0.5).tocsr()
         srows = np.asarray(s.sum(1)).ravel()

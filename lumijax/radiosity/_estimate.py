@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SolveError
+from ._links import link_bytes
 
 __all__ = [
     "OperatorEstimate",
@@ -342,13 +343,13 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
                          columns: int | None = None) -> OperatorEstimate:
     """Bound the ray-sampled operator (``_sampled.py``) before its first ray, or refuse it.
 
-    Every ray a distinct link is the most it can store: ``(8 + itemsize)`` bytes (two int32
-    indices and the weight) × rays × patches, held once (JAX adopts the host arrays the links
+    Every ray a distinct link is the most it can store: :func:`~._links.link_bytes` (8 bytes
+    for a float32 operator) × rays × patches, held once (JAX adopts the host arrays the links
     are written into: ``_jit_cache.host_empty``). ``columns`` (networks × wavelengths): the
     solve that follows counts too, :func:`solve_memory_bytes` of its smallest batch beside
     the operator. Raises :class:`SolveError` naming the ``rays_per_patch`` that would fit."""
     available = available_memory_bytes() if available is None else int(available)
-    stored = (8 + itemsize) * int(n_patches) * int(rays_per_patch)
+    stored = link_bytes(itemsize) * int(n_patches) * int(rays_per_patch)
     peak = stored
     if columns is not None:
         peak += solve_memory_bytes(n_patches, columns, 1, itemsize)
@@ -372,7 +373,7 @@ def sampled_rays_that_fit(n_patches: int, *, itemsize: int = 4, available: int |
     bound (every ray a link) beside the solve's least memory (``columns``), within 90 % of
     ``available`` (default: this machine's)."""
     available = available_memory_bytes() if available is None else int(available)
-    per_ray = (8 + itemsize) * max(int(n_patches), 1)
+    per_ray = link_bytes(itemsize) * max(int(n_patches), 1)
     least = 0 if columns is None else solve_memory_bytes(n_patches, columns, 1, itemsize)
     return int((0.9 * available - least) / per_ray)
 

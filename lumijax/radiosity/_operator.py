@@ -23,7 +23,7 @@ import jax
 import jax.numpy as jnp
 import lineax as lx
 import numpy as np
-from jaxtyping import Array, Float, Int
+from jaxtyping import Array, Float, Int, UInt
 
 __all__ = [
     "AbstractBucket",
@@ -227,19 +227,34 @@ def _on_cpu() -> bool:
 class SampledBucket(AbstractBucket):
     """Ray-sampled links of ``G = A F``, one entry per (receiver, sender) pair a ray joined.
 
-    ``weight[k] = A_i · hits(i → j) / N`` (m²) for ``i = recv[k]``, ``j = src[k]``, N the rays
-    cast from patch i (``_sampled.py``); sorted by receiver, padded to whole chunks with zero
-    weights on the padding patch. Not symmetric: the estimates of ``A_i F_ij`` and
-    ``A_j F_ji`` come from different rays, so ``Gᵀ`` swaps the index arrays.
+    ``weight[k] · scale[i] = A_i · hits(i → j) / N`` (m²) for link k of chunk c, ``i = base[c] +
+    recv[k]``, ``j = src[k]``, N the rays cast from patch i (``_sampled.py``); ``scale`` holds
+    one value a patch and one for the padding patch. Sorted by receiver, in whole chunks
+    padded with zero weights (the layout, eight bytes a link, and its rounding:
+    ``_links.py``). Not symmetric: the estimates of ``A_i F_ij`` and ``A_j F_ji`` come from
+    different rays, so ``Gᵀ`` swaps the roles of receiver and sender. Build one from links
+    with :meth:`from_links`.
     """
 
     weight: Float[Array, " n"]
-    recv: Int[Array, " n"]
+    recv: UInt[Array, " n"]
     src: Int[Array, " n"]
+    base: Int[Array, " chunks"]
+    scale: Float[Array, " patches_and_padding"]
     chunk: int = eqx.field(static=True)
     diagonal: ClassVar[bool] = False  # type: ignore[misc]
     symmetric: ClassVar[bool] = False
     kind: ClassVar[str] = "sampled"
+
+    @classmethod
+    def from_links(cls, recv, src, weight, n_patches: int, dtype=np.float32) -> SampledBucket:
+        """Links ``(recv, src, weight)`` (any order; weights in m², the padding patch is
+        ``n_patches``) stored as the build stores them, for a ``dtype`` operator."""
+        from .._jit_cache import to_device
+        from ._links import pack_links
+
+        *arrays, chunk = pack_links(recv, src, weight, n_patches, dtype)
+        return cls(*(to_device(a) for a in arrays), chunk=chunk)
 
     def apply(self, xext, out, only_block=None, block_of=None, transpose=False):
         # only_block is a skip of work, not a different product (x is zero outside the
@@ -248,33 +263,50 @@ class SampledBucket(AbstractBucket):
         w = self.weight.reshape(steps, self.chunk)
         r = self.recv.reshape(steps, self.chunk)
         s = self.src.reshape(steps, self.chunk)
+        # G = diag(scale) W: a patch's scale once, not once a link (W x, then scaled; Gᵀ x
+        # = Wᵀ (scale x))
+        scale = jnp.pad(self.scale.astype(xext.dtype),  # x may be padded past the patches
+                        (0, xext.shape[0] - self.scale.shape[0]), constant_values=1)
+        scale = scale.reshape((-1,) + (1,) * (xext.ndim - 1))
         if transpose:
-            r, s = s, r
+            xext = xext * scale
 
         width = xext.shape[1] if xext.ndim == 2 else 0
         pad = _WIDE_ROWS - width if _NARROW_ROWS < width < _WIDE_ROWS and _on_cpu() else 0
         if pad:  # zero columns: every real column's arithmetic, and so its bits, unchanged
             xext = jnp.pad(xext, ((0, 0), (0, pad)))
-            out_given, out = out, jnp.zeros((out.shape[0], _WIDE_ROWS), out.dtype)
 
         def body(acc, xs):
-            wk, rk, sk = xs
-            contrib = wk.astype(xext.dtype).reshape((-1,) + (1,) * (xext.ndim - 1)) * xext[sk]
-            return acc.at[rk].add(contrib, indices_are_sorted=not transpose), None
+            wk, rk, sk, base = xs
+            rk = base + rk.astype(jnp.int32)
+            into, of = (sk, rk) if transpose else (rk, sk)
+            contrib = wk.astype(xext.dtype).reshape((-1,) + (1,) * (xext.ndim - 1)) * xext[of]
+            return acc.at[into].add(contrib, indices_are_sorted=not transpose), None
 
-        out, _ = jax.lax.scan(body, out, (w, r, s))
-        return out_given + out[:, :width] if pad else out
+        acc, _ = jax.lax.scan(body, jnp.zeros((out.shape[0],) + xext.shape[1:], out.dtype),
+                              (w, r, s, self.base))
+        acc = acc[:, :width] if pad else acc
+        return out + (acc if transpose else scale * acc)
+
+    def links(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(recv, src, weight)`` of every stored link on the host: int64 patches (the padding
+        ones included), float64 weights (m²)."""
+        recv = np.repeat(np.asarray(self.base, np.int64), self.chunk) + np.asarray(self.recv)
+        return (recv, np.asarray(self.src, np.int64),
+                np.asarray(self.weight, np.float64) * np.asarray(self.scale, np.float64)[recv])
 
     def todense(self):
-        return np.asarray(self.weight, np.float64).reshape(-1, 1, 1)
+        return self.links()[2].reshape(-1, 1, 1)
 
     @property
     def nbytes(self) -> int:
-        return int(self.weight.nbytes + self.recv.nbytes + self.src.nbytes)
+        return int(sum(a.nbytes for a in (self.weight, self.recv, self.src, self.base,
+                                          self.scale)))
 
     @property
     def dtype(self) -> np.dtype:
-        return np.dtype(self.weight.dtype)
+        """The precision of its products: float32 for float16 weights (a float32 study's)."""
+        return np.result_type(np.dtype(self.weight.dtype), np.float32)
 
 
 @eqx.filter_jit
@@ -333,11 +365,12 @@ class TransportOperator(eqx.Module):
         p = self.n_patches
         g = np.zeros((p + 1, p + 1))
         for bk in self.buckets:
+            if isinstance(bk, SampledBucket):  # one link per entry: no mirror image
+                r, s, w = bk.links()
+                np.add.at(g, (r, s), w)
+                continue
             d = bk.todense()
             r, s = np.asarray(bk.recv), np.asarray(bk.src)
-            if not bk.symmetric:  # one link per entry (sampled): no mirror image
-                np.add.at(g, (r, s), d.reshape(-1))
-                continue
             for k in range(len(d)):
                 g[np.ix_(r[k], s[k])] += d[k]
                 if not bk.diagonal:

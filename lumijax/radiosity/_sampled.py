@@ -47,21 +47,15 @@ import numpy as np
 from jaxtyping import Float, Int
 
 from .. import _executables
-from .._jit_cache import host_empty, size_class, to_device
+from .._jit_cache import size_class, to_device
 from ..errors import GeometryError, SolveError
 from ._bright import BrightPatches, aimed_rays, aimed_samples, balance_weight
 from ._gather import _cosine_directions, _frames, merged_links
+from ._links import LinkPacker
 from ._operator import Info, SampledBucket, TransportOperator
 from ._patches import Patches
 
-__all__ = ["SampledSettings", "PatchLocator", "sample_batch", "build_sampled", "sampled_bytes",
-           "front_normals", "LINK_BYTES"]
-
-#: Stored bytes per link: int32 receiver, int32 sender, float32 weight.
-LINK_BYTES = 12
-
-#: Links per step of a product's scan: 2¹⁶ links × 144 columns × 4 bytes ≈ 38 MiB gathered.
-_STEP = 1 << 16
+__all__ = ["SampledSettings", "PatchLocator", "sample_batch", "build_sampled", "front_normals"]
 
 #: Hits per call of the gather's patch lookup (:meth:`PatchLocator.__call__`): one compiled
 #: shape; a call takes ~1 ms, a shape more ~0.25 s to compile in a new study's first run.
@@ -613,7 +607,8 @@ def build_sampled(
     settings
         :class:`SampledSettings`.
     dtype
-        Storage of the weights (float32 or float64).
+        The operator's precision: float32 stores each weight in float16 under a power-of-two
+        scale a chunk, float64 in float64 (``_links.py``).
     progress
         Called with (patches done, patches) after every batch.
     batches
@@ -655,14 +650,22 @@ def build_sampled(
             bright=bright))
     else:  # here: Embree and NumPy release the GIL, so batches overlap on threads
         parts = threaded_map(lambda span: one(*span), spans, threads)
-    links = _Links(patches.n * s.rays_per_patch, dtype)
-    for (_, b), part in zip(spans, parts, strict=True):
-        links.add(*part)  # while the next batches trace: no serial tail of copies
+    # every ray a link at most; written in their stored form as the batches arrive, while
+    # the next ones trace (no serial tail of copies: at 1.9·10⁵ patches that tail was
+    # 0.9–3.8 s, mostly first touches of fresh memory, ~3 ms a MiB on this project's VM)
+    # a cosine ray's hit weighs A_i / (its rays): the stored values are then hit counts
+    cosine = s.rays_per_patch - aimed_rays(s.rays_per_patch, s.aimed_share, bright)
+    links = LinkPacker(patches.n * s.rays_per_patch, patches.n, dtype,
+                       unit=np.asarray(patches.area, np.float64) / max(cosine, 1))
+    rays, ray_s = 0, 0.0
+    for (_, b), (r, c, w, counts) in zip(spans, parts, strict=True):
+        links.add(r, c, w)
+        rays, ray_s = rays + int(counts["rays"]), ray_s + float(counts["ray_s"])
         if progress is not None:
             progress(b, patches.n)
-    recv, src, weight, chunk = links.padded(patches.n)
-    n, rays, ray_s = links.n, links.rays, links.ray_s
-    bucket = SampledBucket(to_device(weight), to_device(recv), to_device(src), chunk=chunk)
+    n = links.links
+    *arrays, chunk = links.packed()
+    bucket = SampledBucket(*(to_device(a) for a in arrays), chunk=chunk)
     build_s = time.perf_counter() - t0
     info = Info(patches=patches.n, blocks=1, transport="sampled", links=n,
                 links_per_patch=n / max(patches.n, 1), rays=rays, ray_time_s=ray_s,
@@ -674,46 +677,6 @@ def build_sampled(
                              info)
 
 
-class _Links:
-    """The links of the batches in one set of arrays, copied in as each batch arrives.
-
-    The arrays are reserved for every ray a link (:func:`sampled_bytes`) but only the pages
-    written become resident; the copies overlap the batches still tracing instead of
-    following them all (at 1.9·10⁵ patches that tail was 0.9–3.8 s, mostly first touches of
-    fresh memory, which cost this project's VM ~3 ms a MiB: benchmarks/RESULTS.md). They are
-    aligned for JAX to adopt (:func:`~lumijax._jit_cache.host_empty`): on the CPU the
-    operator is these arrays, not a copy of them."""
-
-    def __init__(self, most: int, dtype) -> None:
-        most += _STEP  # and the padding of the last whole chunk
-        self.recv = host_empty(most, np.int32)
-        self.src = host_empty(most, np.int32)
-        self.weight = host_empty(most, dtype)
-        self.n, self.rays, self.ray_s = 0, 0, 0.0
-
-    def add(self, r, c, w, counts: dict) -> None:
-        k, m = self.n, len(r)
-        self.recv[k:k + m], self.src[k:k + m], self.weight[k:k + m] = r, c, w
-        self.n += m
-        self.rays += int(counts["rays"])
-        self.ray_s += float(counts["ray_s"])
-
-    def padded(self, zero: int):
-        """``(recv, src, weight, chunk)`` in whole chunks of at most ``_STEP`` links, the
-        padding links of weight 0 from the zero patch ``zero`` to itself."""
-        chunk = max(1, min(_STEP, self.n))
-        total = -(-max(self.n, 1) // chunk) * chunk
-        self.recv[self.n:total] = zero
-        self.src[self.n:total] = zero
-        self.weight[self.n:total] = 0
-        return self.recv[:total], self.src[:total], self.weight[:total], chunk
-
-
 def _batch_task(span, *, patches, caster, settings, locator, front, bright=None):
     """One batch of :func:`build_sampled` on a cluster's worker."""
     return sample_batch(patches, caster, span[0], span[1], settings, locator, front, bright)
-
-
-def sampled_bytes(n_patches: int, rays_per_patch: int) -> int:
-    """Upper bound of the stored links (bytes): every ray a distinct link."""
-    return int(LINK_BYTES * n_patches * rays_per_patch)

@@ -47,9 +47,9 @@ __all__ = [
     "write_operator",
 ]
 
-FORMAT = "lumijax.transport/7"  # 3: second-order far-field kernel; 4: shadowed low rank;
+FORMAT = "lumijax.transport/8"  # 3: second-order far-field kernel; 4: shadowed low rank;
 # 5: hierarchical far field (cluster pairs); 6: keyed HMAC tag, header validated on load;
-# 7: ray-sampled links (kind "sampled")
+# 7: ray-sampled links (kind "sampled"); 8: sampled links in 8 bytes (radiosity/_links.py)
 """Container and operator format. Bump it whenever the file layout *or the form-factor maths*
 change: it is part of the cache key and of every file's header, and a file of another format is
 ignored (rebuilt), never read."""
@@ -59,8 +59,11 @@ _ALIGN = 64
 _FIELDS = {
     "dense": ("blocks", "recv", "src", "recv_block", "src_block"),
     "lowrank": ("u", "v", "recv", "src", "recv_block", "src_block"),
-    "sampled": ("weight", "recv", "src"),
+    "sampled": ("weight", "recv", "src", "base", "scale"),
 }
+#: The dtypes of a sampled bucket's arrays (one link an entry, or one chunk: all flat).
+_SAMPLED = {"weight": ("<f2", "<f4", "<f8"), "recv": ("<u2",), "src": ("<i4", "<i8"),
+            "base": ("<i4", "<i8"), "scale": ("<f4", "<f8")}
 _FLOATS = ("<f4", "<f8")  # the only dtypes a stored value array may have
 _INTS = ("<i4", "<i8")  # ... and an index array
 _HEAD_KEYS = {"format", "key", "n_patches", "n_blocks", "buckets", "arrays", "info"}
@@ -281,8 +284,7 @@ def _table(head: dict, payload: int, path: Path) -> dict[str, tuple[int, np.dtyp
         _check(_is_int(b["chunk"]) and b["chunk"] >= 1,
                f"bucket {k}: 'chunk' is not a whole number >= 1", path)
         if b["kind"] == "sampled":  # one link per entry: every array is a flat list
-            want.update({f"b{k}_{f}": (_FLOATS if f == "weight" else _INTS, 1)
-                         for f in _FIELDS["sampled"]})
+            want.update({f"b{k}_{f}": (_SAMPLED[f], 1) for f in _FIELDS["sampled"]})
             continue
         for f in _FIELDS[b["kind"]]:
             want[f"b{k}_{f}"] = ((_FLOATS, 3) if f in ("blocks", "u", "v") else
@@ -326,17 +328,26 @@ def _in_range(a: np.ndarray, lo: int, hi: int) -> bool:
 
 
 def _sampled_bucket(f: dict, chunk: int, k: int, n_p: int, path: Path) -> SampledBucket:
-    """A sampled bucket's arrays, checked as the block buckets' are: one length, whole
-    chunks, every patch index in ``0..n_patches`` (the padding patch), weights finite and
-    non-negative (a weight is area × a hit fraction)."""
+    """A sampled bucket's arrays (``_links.py``), checked as the block buckets' are: whole
+    chunks, one base and scale a chunk, every patch index (base + offset) in ``0..n_patches``
+    (the padding patch), weights finite and non-negative (a weight is area × a hit fraction),
+    the patches' scales finite and positive."""
     n = f["weight"].shape[0]
     _check(f["recv"].shape == (n,) and f["src"].shape == (n,),
            f"bucket {k}: index arrays do not match the weights' length", path)
     _check(n % chunk == 0, f"bucket {k}: {n} links are not whole chunks of {chunk}", path)
-    _check(_in_range(f["recv"], 0, n_p) and _in_range(f["src"], 0, n_p),
-           f"bucket {k}: a patch index outside 0..n_patches", path)
+    steps = n // chunk
+    _check(f["base"].shape == (steps,) and f["scale"].shape == (n_p + 1,),
+           f"bucket {k}: not one base a chunk and one scale a patch (and the padding's)", path)
+    top = (f["recv"].reshape(steps, chunk).max(axis=1).astype(np.int64) if n else
+           np.zeros(0, np.int64))  # each chunk's farthest receiver, from its base
+    _check(_in_range(f["base"], 0, n_p) and bool(np.all(f["base"] + top <= n_p))
+           and _in_range(f["src"], 0, n_p), f"bucket {k}: a patch index outside 0..n_patches",
+           path)
     _check(_all_finite(f["weight"]) and (n == 0 or float(f["weight"].min()) >= 0),
            f"bucket {k}: weights must be finite and >= 0", path)
+    _check(_all_finite(f["scale"]) and bool(np.all(f["scale"] > 0)),
+           f"bucket {k}: patch scales must be finite and > 0", path)
     return SampledBucket(*(to_device(f[name]) for name in _FIELDS["sampled"]), chunk=chunk)
 
 

@@ -141,10 +141,10 @@ def test_gradient_through_a_batched_solve(pair):
 
 
 def test_the_sampled_bound_counts_the_solve():
-    """1,080,114 patches × 256 rays: 3.32 GB of links (12 B each), held once (JAX adopts the
-    host arrays); with 288 columns the solve's one-column batch (24 × 4 B × 1,179,648 padded patches) and
-    the results (12 B a patch and column) come on top of the stored links: 7.05 GB."""
-    links = 12 * 1_080_114 * 256
+    """1,080,114 patches × 256 rays: 2.21 GB of links (8 B each: radiosity/_links.py), held
+    once (JAX adopts the host arrays); with 288 columns the solve's one-column batch (24 × 4 B × 1,179,648 padded patches) and
+    the results (12 B a patch and column) come on top of the stored links: 6.06 GB."""
+    links = 8 * 1_080_114 * 256
     solve = 24 * 4 * 1_179_648 + 288 * 1_080_114 * 12
     assert solve_memory_bytes(1_080_114, 288, 1, 4) == solve
     est = bound_sampled_memory(1_080_114, 256, available=1 << 40, columns=288)
@@ -155,6 +155,6 @@ def test_the_sampled_bound_counts_the_solve():
         bound_sampled_memory(1_080_114, 256, available=links + solve - 1, columns=288)
     assert "288 columns" in str(err.value)
     rays = int(re.search(r"rays_per_patch ≤ ([\d,]+)", str(err.value))[1].replace(",", ""))
-    assert 150 < rays < 256  # (0.9 × available − solve) / 12 B a patch: ≈ 200; it fits
+    assert 150 < rays < 256  # (0.9 × available − solve) / 8 B a patch: ≈ 186; it fits
     bound_sampled_memory(1_080_114, rays, available=links + solve - 1, columns=288)
     bound_sampled_memory(1_080_114, 256, available=links + solve - 1)
