@@ -418,10 +418,12 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
     if settings.rays_per_patch == "auto" and direct is not None and direct.patches is not None:
         rays = _rays_for_noise(scene, patches, settings, operator, ss, bright, direct, dtype)
         if rays > ss.rays_per_patch:
+            share = _links_per_ray(operator, patches.n)
             ss = dataclasses.replace(ss, rays_per_patch=rays)
             estimate = bound_sampled_memory(
                 patches.n, rays, itemsize=np.dtype(dtype).itemsize, file=scene.source,
-                columns=len(scene.networks) * max(settings.spectral_samples, 1))
+                columns=len(scene.networks) * max(settings.spectral_samples, 1),
+                links_per_ray=share)
             del operator  # its links, before the second build's
             operator, hit = build(ss)
     return Transport(operator, hit, int(estimate.stored_bytes), bound_s, None,
@@ -447,8 +449,18 @@ def _rays_for_noise(scene: Scene, patches: Patches, settings: SolverSettings, op
     # aimed a tenth below the warning, so that the second build's own sample lands under it
     want = _rays_for(ss.rays_per_patch, noise.rms, 0.9 * NOISE_WARN)
     fit = sampled_rays_that_fit(patches.n, itemsize=np.dtype(dtype).itemsize,
-                                columns=len(scene.networks) * max(settings.spectral_samples, 1))
+                                columns=len(scene.networks) * max(settings.spectral_samples, 1),
+                                links_per_ray=_links_per_ray(operator, patches.n))
     return int(min(want, fit, 65536))
+
+
+def _links_per_ray(operator, n_patches: int) -> float:
+    """The share of a sampled operator's rays that became a link (rays into the sky store
+    nothing, a patch's repeated hits on one patch one link), with a twentieth to spare: an
+    upper bound for the same scene at more rays a patch, where more hits merge
+    (``bound_sampled_memory``)."""
+    rays = int(operator.info["settings"]["rays_per_patch"]) * max(int(n_patches), 1)
+    return min(1.0, 1.05 * int(operator.info["links"]) / max(rays, 1))
 
 
 def _luminous_rho(scene: Scene, patches: Patches) -> Float[np.ndarray, " patches"]:
@@ -483,8 +495,9 @@ def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosit
         n = noise.rays_per_patch
         enough = _rays_for(n, noise.rms, NOISE_WARN)
         fit = sampled_rays_that_fit(
-            meshed.patches.n, itemsize=np.dtype(transport.operator.area.dtype).itemsize,
-            columns=len(scene.networks) * max(1 if sampling is None else sampling.spectral.n, 1))
+            meshed.patches.n, itemsize=np.dtype(transport.operator.buckets[0].dtype).itemsize,
+            columns=len(scene.networks) * max(1 if sampling is None else sampling.spectral.n, 1),
+            links_per_ray=_links_per_ray(transport.operator, meshed.patches.n))
         fix = (f"[solver] rays_per_patch = {enough} would bring it to ≈ 3 %" if enough <= fit
                else f"≈ 3 % would take ≈ {enough:,} rays a patch and at most {fit:,} fit in "
                     "this machine's memory: a larger [solver] patch_size (fewer patches) or "

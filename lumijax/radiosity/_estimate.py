@@ -340,23 +340,28 @@ def check_before_meshing(vertices, group, size: float, *, element_size: float | 
 
 def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int = 4,
                          available: int | None = None, file=None,
-                         columns: int | None = None) -> OperatorEstimate:
+                         columns: int | None = None,
+                         links_per_ray: float = 1.0) -> OperatorEstimate:
     """Bound the ray-sampled operator (``_sampled.py``) before its first ray, or refuse it.
 
     Every ray a distinct link is the most it can store: :func:`~._links.link_bytes` (8 bytes
     for a float32 operator) × rays × patches, held once (JAX adopts the host arrays the links
-    are written into: ``_jit_cache.host_empty``). ``columns`` (networks × wavelengths): the
-    solve that follows counts too, :func:`solve_memory_bytes` of its smallest batch beside
-    the operator. Raises :class:`SolveError` naming the ``rays_per_patch`` that would fit."""
+    are written into: ``_jit_cache.host_empty``). ``links_per_ray`` < 1: a share measured on
+    the same scene with no more rays a patch (rays into the sky store nothing, and more rays
+    merge more of their hits into one link, so the share only falls as rays are added).
+    ``columns`` (networks × wavelengths): the solve that follows counts too,
+    :func:`solve_memory_bytes` of its smallest batch beside the operator. Raises
+    :class:`SolveError` naming the ``rays_per_patch`` that would fit."""
     available = available_memory_bytes() if available is None else int(available)
-    stored = link_bytes(itemsize) * int(n_patches) * int(rays_per_patch)
+    stored = int(link_bytes(itemsize) * min(float(links_per_ray), 1.0) * int(n_patches)
+                 * int(rays_per_patch))
     peak = stored
     if columns is not None:
         peak += solve_memory_bytes(n_patches, columns, 1, itemsize)
     est = OperatorEstimate(int(n_patches), 1, 0, stored, peak, visible_only=False)
     if est.peak_bytes > available:
         fit = sampled_rays_that_fit(n_patches, itemsize=itemsize, available=available,
-                                    columns=columns)
+                                    columns=columns, links_per_ray=links_per_ray)
         fix = (f"set [solver] rays_per_patch ≤ {fit:,}" if fit >= 16 else
                "set a larger [solver] patch_size (fewer patches)")
         solve = "" if columns is None else f" with the solve of {int(columns):,} columns"
@@ -368,12 +373,12 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
 
 
 def sampled_rays_that_fit(n_patches: int, *, itemsize: int = 4, available: int | None = None,
-                          columns: int | None = None) -> int:
+                          columns: int | None = None, links_per_ray: float = 1.0) -> int:
     """The most rays a patch whose sampled operator :func:`bound_sampled_memory` accepts: its
-    bound (every ray a link) beside the solve's least memory (``columns``), within 90 % of
-    ``available`` (default: this machine's)."""
+    bound (every ray a link, or ``links_per_ray`` of them) beside the solve's least memory
+    (``columns``), within 90 % of ``available`` (default: this machine's)."""
     available = available_memory_bytes() if available is None else int(available)
-    per_ray = link_bytes(itemsize) * max(int(n_patches), 1)
+    per_ray = link_bytes(itemsize) * min(float(links_per_ray), 1.0) * max(int(n_patches), 1)
     least = 0 if columns is None else solve_memory_bytes(n_patches, columns, 1, itemsize)
     return int((0.9 * available - least) / per_ray)
 

@@ -60,24 +60,35 @@ class LinkPacker:
     ``A_i / N``); None: 1, so the power of two alone puts each patch's largest weight just
     under 2¹⁵. The arrays are reserved for ``most`` links (and the padding of chunks closed
     early) but only the pages written become resident, and they are aligned for JAX to adopt
-    without a copy (:func:`~lumijax._jit_cache.host_empty`).
+    without a copy (:func:`~lumijax._jit_cache.host_empty`); more links than reserved move
+    them into larger ones (a copy, which a good ``most`` avoids).
     """
 
     def __init__(self, most: int, n_patches: int, dtype=np.float32, unit=None) -> None:
         self.compact = np.dtype(dtype).itemsize <= 4
         self.zero = int(n_patches)
+        self.recv = self.src = self.weight = np.zeros(0)
+        self.base = np.zeros(0, np.int32)
+        self.n = 0  # slots written, padding included
+        self.links = 0  # links given
         # a chunk closed early wastes less than a chunk, and needs 65,536 receivers passed
-        steps = -(-(int(most) + CHUNK * (self.zero // SPAN + 2)) // CHUNK)
-        cap = steps * CHUNK
-        self.recv = host_empty(cap, np.uint16)
-        self.src = host_empty(cap, np.int32)
-        self.weight = host_empty(cap, np.float16 if self.compact else np.float64)
-        self.base = np.zeros(steps, np.int32)
+        self._reserve(int(most) + CHUNK * (self.zero // SPAN + 2))
         self.unit = (None if unit is None or not self.compact
                      else np.asarray(unit, np.float64).reshape(self.zero))
         self.scale = np.ones(self.zero + 1, np.float32 if self.compact else np.float64)
-        self.n = 0  # slots written, padding included
-        self.links = 0  # links given
+
+    def _reserve(self, slots: int) -> None:
+        """Room for ``slots`` slots in all (whole chunks), what is written kept."""
+        steps = -(-slots // CHUNK)
+        if steps <= len(self.base):
+            return
+        cap, n = steps * CHUNK, self.n
+        for name, dtype in (("recv", np.uint16), ("src", np.int32),
+                            ("weight", np.float16 if self.compact else np.float64)):
+            new = host_empty(cap, dtype)
+            new[:n] = getattr(self, name)[:n]
+            setattr(self, name, new)
+        self.base = np.concatenate([self.base, np.zeros(steps - len(self.base), np.int32)])
 
     def add(self, recv, src, weight) -> None:
         """Append links ``(recv, src, weight)``: ``recv`` ascending, none below the last batch's,
@@ -90,6 +101,8 @@ class LinkPacker:
         self.links += m
         while i < m:
             k, pos = divmod(self.n, CHUNK)
+            if k == len(self.base):  # more links than reserved
+                self._reserve(max(self.n + m - i, int(1.5 * self.n)) + CHUNK)
             if pos == 0:
                 self.base[k] = recv[i]
             j = min(m, i + CHUNK - pos)

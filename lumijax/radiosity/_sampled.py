@@ -655,7 +655,14 @@ def build_sampled(
     # 0.9–3.8 s, mostly first touches of fresh memory, ~3 ms a MiB on this project's VM)
     # a cosine ray's hit weighs A_i / (its rays): the stored values are then hit counts
     cosine = s.rays_per_patch - aimed_rays(s.rays_per_patch, s.aimed_share, bright)
-    links = LinkPacker(patches.n * s.rays_per_patch, patches.n, dtype,
+    # reserved for every ray a link, or what memory could hold where that is less (the
+    # memory bound then judged by the links a ray measured: ``_estimate.py``)
+    from ._estimate import available_memory_bytes
+    from ._links import link_bytes
+
+    most = min(patches.n * s.rays_per_patch,
+               available_memory_bytes() // link_bytes(np.dtype(dtype).itemsize))
+    links = LinkPacker(most, patches.n, dtype,
                        unit=np.asarray(patches.area, np.float64) / max(cosine, 1))
     rays, ray_s = 0, 0.0
     for (_, b), (r, c, w, counts) in zip(spans, parts, strict=True):

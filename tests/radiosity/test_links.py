@@ -13,11 +13,13 @@ from lumijax.radiosity._links import CHUNK, SPAN, link_bytes
 from lumijax.radiosity._operator import Info
 
 
-def _random_links(n_patches: int, seed: int = 0):
-    """≈ 2.3 chunks of links whose receivers leave a gap wider than a chunk can span (patches
-    with no links, as a roof's whose rays all leave for the sky), merged per pair."""
+def _random_links(n_patches: int, seed: int = 0, scale: int = 1):
+    """≈ 2.3 chunks of links (× ``scale``) whose receivers leave a gap wider than a chunk can
+    span (patches with no links, as a roof's whose rays all leave for the sky), merged per
+    pair."""
     rng = np.random.default_rng(seed)
-    recv = np.r_[rng.integers(0, 1_000, 90_000), rng.integers(1_000 + SPAN + 5, n_patches, 60_000)]
+    recv = np.r_[rng.integers(0, 1_000, 90_000 * scale),
+                 rng.integers(1_000 + SPAN + 5, n_patches, 60_000 * scale)]
     src = rng.integers(0, n_patches, len(recv))
     key, inv = np.unique(recv * n_patches + src, return_inverse=True)
     weight = np.bincount(inv, weights=rng.exponential(1e-3, len(recv)))
@@ -91,3 +93,24 @@ def test_link_bytes_as_stored(dtype):
     per_link = (bk.weight.dtype.itemsize + bk.recv.dtype.itemsize + bk.src.dtype.itemsize)
     itemsize = 8 if bk.weight.dtype == jnp.float64 else 4  # float32 under x64 off
     assert per_link == link_bytes(itemsize) or (itemsize == 4 and per_link == 8)
+
+
+def test_more_links_than_reserved_move_into_larger_arrays():
+    """Reserved for 1,000 links (and four chunks of padding), given 5·10⁵ in batches of whole
+    patches (as the build gives them): the same arrays as packed at once."""
+    from lumijax.radiosity._links import LinkPacker
+
+    n = 140_000
+    r, s, w = _random_links(n, seed=3, scale=4)
+    whole = SampledBucket.from_links(r, s, w, n)
+    packer = LinkPacker(1_000, n)
+    reserved = len(packer.base)
+    starts = np.flatnonzero(np.r_[True, r[1:] != r[:-1]])  # each patch's first link
+    cuts = np.r_[starts[::5_000], len(r)]
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        packer.add(r[a:b], s[a:b], w[a:b])
+    *arrays, chunk = packer.packed()
+    assert chunk == whole.chunk and len(packer.base) > reserved
+    for got, want in zip(arrays, (whole.weight, whole.recv, whole.src, whole.base, whole.scale),
+                         strict=True):
+        assert np.array_equal(np.asarray(got), np.asarray(want))

@@ -362,3 +362,23 @@ def test_the_links_are_held_once(small_furnished, tmp_path):
                                                      back.buckets[0].recv, back.buckets[0].src))
     # one read buffer: the arrays lie at their offsets in it, in the file's order
     assert w < r < s and s - w < 3 * back.buckets[0].weight.nbytes + 256
+
+
+def test_the_share_of_rays_kept_as_links_only_falls_with_more_rays(small_furnished):
+    """What ``rays_per_patch = "auto"`` bounds its second build by: the first build's links a
+    ray (rays into the sky store nothing, repeated hits merge) bound those at more rays."""
+    from lumijax.lighting._stages import _links_per_ray
+
+    p, tri, _, op64 = small_furnished
+    shares = [_links_per_ray(op64, p.n)]
+    for rays in (256, 1024):
+        op = build_sampled(p, tri, SampledSettings(rays_per_patch=rays))
+        shares.append(_links_per_ray(op, p.n))
+        assert 0 < op.info["links"] <= p.n * rays
+    assert shares[0] > shares[1] > shares[2]  # a closed room: every ray hits, many merge
+    # the bound scales by the share, and names the rays that fit by it too
+    full = bound_sampled_memory(10_000, 256, available=1 << 30)
+    half = bound_sampled_memory(10_000, 256, available=1 << 30, links_per_ray=0.5)
+    assert half.stored_bytes == full.stored_bytes // 2
+    with pytest.raises(SolveError, match=r"rays_per_patch ≤ 241\b"):  # 0.9 GiB / 4 MB a ray
+        bound_sampled_memory(1_000_000, 300, available=1 << 30, links_per_ray=0.5)
