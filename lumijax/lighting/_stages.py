@@ -498,10 +498,12 @@ def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosit
             meshed.patches.n, itemsize=np.dtype(transport.operator.buckets[0].dtype).itemsize,
             columns=len(scene.networks) * max(1 if sampling is None else sampling.spectral.n, 1),
             links_per_ray=_links_per_ray(transport.operator, meshed.patches.n))
+        most = (f"at most {fit:,} fit" if fit > n else
+                f"no more than these {n:,} fit beside the solve")
         fix = (f"[solver] rays_per_patch = {enough} would bring it to ≈ 3 %" if enough <= fit
-               else f"≈ 3 % would take ≈ {enough:,} rays a patch and at most {fit:,} fit in "
-                    "this machine's memory: a larger [solver] patch_size (fewer patches) or "
-                    "more memory")
+               else f"≈ 3 % would take ≈ {enough:,} rays a patch and {most} in this "
+                    "machine's memory: a larger [solver] patch_size (fewer patches) or more "
+                    "memory")
         points = ("" if noise.points_rms is None else
                   f" (≈ {100 * noise.points_rms:.1f} % at the grid points)")
         warnings.warn(

@@ -361,7 +361,7 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
     est = OperatorEstimate(int(n_patches), 1, 0, stored, peak, visible_only=False)
     if est.peak_bytes > available:
         fit = sampled_rays_that_fit(n_patches, itemsize=itemsize, available=available,
-                                    columns=columns, links_per_ray=links_per_ray)
+                                    columns=columns, links_per_ray=links_per_ray, least=True)
         fix = (f"set [solver] rays_per_patch ≤ {fit:,}" if fit >= 16 else
                "set a larger [solver] patch_size (fewer patches)")
         solve = "" if columns is None else f" with the solve of {int(columns):,} columns"
@@ -373,14 +373,21 @@ def bound_sampled_memory(n_patches: int, rays_per_patch: int, *, itemsize: int =
 
 
 def sampled_rays_that_fit(n_patches: int, *, itemsize: int = 4, available: int | None = None,
-                          columns: int | None = None, links_per_ray: float = 1.0) -> int:
-    """The most rays a patch whose sampled operator :func:`bound_sampled_memory` accepts: its
-    bound (every ray a link, or ``links_per_ray`` of them) beside the solve's least memory
-    (``columns``), within 90 % of ``available`` (default: this machine's)."""
+                          columns: int | None = None, links_per_ray: float = 1.0,
+                          least: bool = False) -> int:
+    """The most rays a patch whose sampled operator fits beside the solve that follows: its
+    bound (every ray a link, or ``links_per_ray`` of them), the solve's results (``columns``)
+    and the :data:`SOLVE_SHARE` its batches of columns take (:func:`solve_column_batch`),
+    within 90 % of ``available`` (default: this machine's). Reserving only the solve's least
+    memory (one column a batch) let the links take what its batches then took as well: the
+    LoD-3 courtyard at 1,408 rays held 17.8 GiB of a 16 GiB budget (session 34). ``least``:
+    that least memory all the same — what :func:`bound_sampled_memory` accepts at all."""
     available = available_memory_bytes() if available is None else int(available)
     per_ray = link_bytes(itemsize) * min(float(links_per_ray), 1.0) * max(int(n_patches), 1)
-    least = 0 if columns is None else solve_memory_bytes(n_patches, columns, 1, itemsize)
-    return int((0.9 * available - least) / per_ray)
+    solve = 0.0 if columns is None else (solve_memory_bytes(n_patches, columns, 1, itemsize)
+                                         if least else SOLVE_SHARE * available
+                                         + solve_memory_bytes(n_patches, columns, 0, itemsize))
+    return max(0, int((0.9 * available - solve) / per_ray))
 
 
 #: Patch-length vectors of the solve's precision alive per column while it runs (BiCGStab's and

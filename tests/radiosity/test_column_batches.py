@@ -16,6 +16,7 @@ from lumijax.radiosity import solve_radiosity
 from lumijax.radiosity._estimate import (
     SOLVE_SHARE,
     bound_sampled_memory,
+    sampled_rays_that_fit,
     solve_column_bytes,
     solve_memory_bytes,
 )
@@ -158,3 +159,15 @@ def test_the_sampled_bound_counts_the_solve():
     assert 150 < rays < 256  # (0.9 × available − solve) / 8 B a patch: ≈ 186; it fits
     bound_sampled_memory(1_080_114, rays, available=links + solve - 1, columns=288)
     bound_sampled_memory(1_080_114, 256, available=links + solve - 1)
+
+
+def test_the_rays_that_fit_leave_the_solve_its_batches():
+    """The LoD-3 courtyard in a 16 GiB budget, 288 columns, 0.55 links a ray: the links get
+    what is left of 90 % once the solve's batches (half the budget) and its results (12 B a
+    patch and column, 3.73 GB) are set aside — (0.4 × 16 GiB − 3.73 GB) / 4.75 MB a ray = 660
+    rays. Counting one column a batch only (what the bound accepts at all) let them take the
+    batches' memory too: 2,444 rays, and 17.8 GiB held at 1,408 (benchmarks/RESULTS.md)."""
+    kw = dict(available=16 * 2**30, columns=288, links_per_ray=0.55)
+    assert sampled_rays_that_fit(1_080_114, **kw) == 660
+    assert sampled_rays_that_fit(1_080_114, least=True, **kw) == 2_444
+    assert sampled_rays_that_fit(1_080_114, available=2**30, columns=288) == 0  # none at all
