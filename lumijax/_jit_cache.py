@@ -247,7 +247,7 @@ HOST_ALIGN = 64
 def host_empty(n: int, dtype):
     """An uninitialised 1-D numpy array of ``n`` items that :func:`to_device` hands to JAX
     without a copy on the CPU (``jax.device_put`` adopts a buffer aligned to
-    :data:`HOST_ALIGN` bytes, and copies any other). An operator of 10⁹ links (12 GB) is then
+    :data:`HOST_ALIGN` bytes, and copies any other). An operator of 10⁹ links (8 GB) is then
     held once, not twice while it is assembled (benchmarks/RESULTS.md, session 34). Write it
     before it is handed over and never after: JAX reads the same memory."""
     import numpy as np

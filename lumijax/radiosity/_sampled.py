@@ -607,8 +607,8 @@ def build_sampled(
     settings
         :class:`SampledSettings`.
     dtype
-        The operator's precision: float32 stores each weight in float16 under a power-of-two
-        scale a chunk, float64 in float64 (``_links.py``).
+        The operator's precision: float32 stores each weight in float16 under a scale a
+        patch, float64 in float64 (``_links.py``).
     progress
         Called with (patches done, patches) after every batch.
     batches
@@ -650,16 +650,16 @@ def build_sampled(
             bright=bright))
     else:  # here: Embree and NumPy release the GIL, so batches overlap on threads
         parts = threaded_map(lambda span: one(*span), spans, threads)
-    # every ray a link at most; written in their stored form as the batches arrive, while
-    # the next ones trace (no serial tail of copies: at 1.9·10⁵ patches that tail was
-    # 0.9–3.8 s, mostly first touches of fresh memory, ~3 ms a MiB on this project's VM)
-    # a cosine ray's hit weighs A_i / (its rays): the stored values are then hit counts
-    cosine = s.rays_per_patch - aimed_rays(s.rays_per_patch, s.aimed_share, bright)
-    # reserved for every ray a link, or what memory could hold where that is less (the
-    # memory bound then judged by the links a ray measured: ``_estimate.py``)
     from ._estimate import available_memory_bytes
     from ._links import link_bytes
 
+    # The links are written in their stored form as the batches arrive, while the next ones
+    # trace (no serial tail of copies: at 1.9·10⁵ patches that tail was 0.9–3.8 s, mostly
+    # first touches of fresh memory, ~3 ms a MiB on this project's VM), into arrays reserved
+    # for every ray a link or what memory holds where that is less (``auto`` bounds its
+    # build by the links a ray measured). A cosine ray's hit weighs A_i / (cosine rays): with
+    # that unit the stored values are whole hit counts.
+    cosine = s.rays_per_patch - aimed_rays(s.rays_per_patch, s.aimed_share, bright)
     most = min(patches.n * s.rays_per_patch,
                available_memory_bytes() // link_bytes(np.dtype(dtype).itemsize))
     links = LinkPacker(most, patches.n, dtype,

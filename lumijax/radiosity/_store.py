@@ -61,7 +61,7 @@ _FIELDS = {
     "lowrank": ("u", "v", "recv", "src", "recv_block", "src_block"),
     "sampled": ("weight", "recv", "src", "base", "scale"),
 }
-#: The dtypes of a sampled bucket's arrays (one link an entry, or one chunk: all flat).
+#: The dtypes of a sampled bucket's arrays (an entry a link, a chunk or a patch: all flat).
 _SAMPLED = {"weight": ("<f2", "<f4", "<f8"), "recv": ("<u2",), "src": ("<i4", "<i8"),
             "base": ("<i4", "<i8"), "scale": ("<f4", "<f8")}
 _FLOATS = ("<f4", "<f8")  # the only dtypes a stored value array may have
@@ -329,7 +329,7 @@ def _in_range(a: np.ndarray, lo: int, hi: int) -> bool:
 
 def _sampled_bucket(f: dict, chunk: int, k: int, n_p: int, path: Path) -> SampledBucket:
     """A sampled bucket's arrays (``_links.py``), checked as the block buckets' are: whole
-    chunks, one base and scale a chunk, every patch index (base + offset) in ``0..n_patches``
+    chunks, one base a chunk and one scale a patch, every patch index (base + offset) in ``0..n_patches``
     (the padding patch), weights finite and non-negative (a weight is area × a hit fraction),
     the patches' scales finite and positive."""
     n = f["weight"].shape[0]
