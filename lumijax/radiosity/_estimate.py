@@ -380,7 +380,7 @@ def sampled_rays_that_fit(n_patches: int, *, itemsize: int = 4, available: int |
     and the :data:`SOLVE_SHARE` its batches of columns take (:func:`solve_column_batch`),
     within 90 % of ``available`` (default: this machine's). Reserving only the solve's least
     memory (one column a batch) let the links take what its batches then took as well: the
-    LoD-3 courtyard at 1,408 rays held 17.8 GiB of a 16 GiB budget (session 34). ``least``:
+    LoD-3 courtyard at ≈ 1,850 rays held 17.8 GiB of a 16 GiB budget (session 34). ``least``:
     that least memory all the same — what :func:`bound_sampled_memory` accepts at all."""
     available = available_memory_bytes() if available is None else int(available)
     per_ray = link_bytes(itemsize) * min(float(links_per_ray), 1.0) * max(int(n_patches), 1)

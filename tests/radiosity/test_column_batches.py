@@ -166,7 +166,7 @@ def test_the_rays_that_fit_leave_the_solve_its_batches():
     what is left of 90 % once the solve's batches (half the budget) and its results (12 B a
     patch and column, 3.73 GB) are set aside — (0.4 × 16 GiB − 3.73 GB) / 4.75 MB a ray = 660
     rays. Counting one column a batch only (what the bound accepts at all) let them take the
-    batches' memory too: 2,444 rays, and 17.8 GiB held at 1,408 (benchmarks/RESULTS.md)."""
+    batches' memory too: 2,444 rays, and 17.8 GiB held at ≈ 1,850 (benchmarks/RESULTS.md)."""
     kw = dict(available=16 * 2**30, columns=288, links_per_ray=0.55)
     assert sampled_rays_that_fit(1_080_114, **kw) == 660
     assert sampled_rays_that_fit(1_080_114, least=True, **kw) == 2_444
