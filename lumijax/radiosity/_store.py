@@ -38,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._atomic import atomic_path
-from .._jit_cache import host_empty, to_device
+from .._jit_cache import HOST_ALIGN, host_empty, to_device
 from ..errors import OutputError
 from ._operator import Bucket, Info, LowRankBucket, SampledBucket, TransportOperator
 
@@ -55,7 +55,9 @@ change: it is part of the cache key and of every file's header, and a file of an
 ignored (rebuilt), never read."""
 
 _MAGIC = b"LUMIJAX-TRANSPRT"
-_ALIGN = 64
+# every array starts at a multiple of this in the file, so read into an aligned buffer it lies
+# where JAX adopts it without a copy (``_read_bytes``)
+_ALIGN = HOST_ALIGN
 _FIELDS = {
     "dense": ("blocks", "recv", "src", "recv_block", "src_block"),
     "lowrank": ("u", "v", "recv", "src", "recv_block", "src_block"),

@@ -163,7 +163,7 @@ def test_the_warning_says_when_the_rays_for_3_percent_do_not_fit(write_study, mo
 
     study = load_study(write_study(_low_lamp_box("sampled", 32)))
     # a machine with 4 MiB: 32 rays a patch fit, the ≈ 2,500 that 3 % would take do not
-    # (1,056 patches, 8 B a link, at most one link a ray)
+    # (1,056 patches, 8 B a link, beside the solve's batches and results)
     monkeypatch.setattr(_estimate, "available_memory_bytes", lambda: 4 * 2**20)
     with pytest.warns(LumijaxWarning, match=r"at most [\d,]+ fit in this machine's memory"):
         lumijax.compute(study)
