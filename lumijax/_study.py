@@ -96,6 +96,7 @@ def solver_settings(study: Study, **overrides) -> SolverSettings:
         spectral_samples=c.spectral_samples, operator_patches=c.operator_patches,
         refine=c.refine, refine_threshold=c.refine_threshold,
         transport=c.transport, rays_per_patch=c.rays_per_patch, aimed_share=c.aimed_share,
+        final_gather_rays=c.final_gather_rays,
     )
     values.update(overrides)
     return SolverSettings(**values)
@@ -236,12 +237,13 @@ def compute(
     timing = {"load": study.load_s, "config": study.config_s, "scene": study.scene_s,
               **lighting.stats.get("timing_s", {}), "total": time.perf_counter() - t0}
     counts = {k: v for k, v in lighting.stats.items()
-              if isinstance(v, int) and not isinstance(v, bool) and k != "gather_rays"}
+              if isinstance(v, int) and not isinstance(v, bool)
+              and k not in ("gather_rays", "final_gather_rays")}
     counts["grid_points"] = int(len(points))
     solver = {k: v for k, v in lighting.stats.items()
               if k in ("patch_size_m", "iterations", "residual", "escaped_fraction",
                        "operator_cache_hit", "spectral_samples", "columns_solved",
-                       "solved_directly", "sampled_noise",
+                       "solved_directly", "sampled_noise", "final_gather_rays",
                        "gather_rays")}
     if lighting.spectral is not None and lighting.spectral.sampling is not None:
         solver["wavelengths_nm"] = [float(w) for w in lighting.spectral.sampling.wavelengths_nm]

@@ -425,6 +425,7 @@ TIMING_ROWS = (
     ("direct light", ("direct_points", "direct_patches")),
     ("operator", ("memory_bound", "partition", "operator", "sampled_noise")),
     ("spectral sampling", ("spectral_sampling",)), ("solve", ("solve",)),
+    ("final gather on patches (sampled)", ("sampled_final_gather",)),
     ("gather", ("gather_rays", "gather", "final_gather")),
 )
 

@@ -556,6 +556,18 @@ class SolverConfig(_Model):
     rays_per_patch: Annotated[int, Field(ge=16, le=65536)] | Literal["auto"] = 256
     # of those, the share aimed at the directly lit patches (radiosity/_bright.py); 0: none
     aimed_share: Annotated[float, Field(ge=0, le=0.9)] = 0.25
+    # rays a patch of the sampled transport's final gather (radiosity/_sampled_gather.py):
+    # each patch's inter-reflected light cast once more, never stored; None: none ("auto"
+    # rays_per_patch sets it to what ≈ 3 % per patch needs)
+    final_gather_rays: Annotated[int, Field(ge=16, le=65536)] | None = None
+
+    @model_validator(mode="after")
+    def _final_gather_is_sampled(self):
+        if self.final_gather_rays is not None and self.transport != "sampled":
+            raise ValueError("'final_gather_rays' gathers the sampled transport's light once "
+                             "more: it needs transport = \"sampled\" (the block operator "
+                             "has no noise to gather away)")
+        return self
 
 
 class OptimiseConfig(_Model):

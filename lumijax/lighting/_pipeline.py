@@ -79,7 +79,8 @@ def solve_lighting(
     rays = st.cast_gather_rays(points, normals, meshed, scene, settings,
                                report("gathering onto grids"))
     radiosity = st.solve(scene, points, normals, emission, direct, meshed, transport, sampling,
-                         rays, settings, report("solving inter-reflections"))
+                         rays, settings, report("solving inter-reflections"),
+                         report("final gather on patches"))
     noise = st.transport_noise(scene, meshed, transport, radiosity, rays, sampling)
     gathered = st.gather_fine(scene, emission, direct, meshed, sampling, radiosity, settings)
     sol = st.assemble(scene, points, normals, emission, direct, meshed, transport, sampling,

@@ -62,6 +62,9 @@ class SolverSettings:
     # patch needs, at most what fits (docs/radiosity.md, "Own noise, stated with every run")
     rays_per_patch: int | str = 256
     aimed_share: float = 0.25  # of those, aimed at the lit patches (radiosity/_bright.py)
+    # rays a patch of the sampled transport's final gather (radiosity/_sampled_gather.py);
+    # None: none, or with "auto" rays what ≈ 3 % per patch needs
+    final_gather_rays: int | None = None
 
     @property
     def first_rays(self) -> int:

@@ -39,6 +39,7 @@ from .._jit_cache import to_device
 from ..direct import direct_illuminance
 from ..radiosity import Patches, RadiositySolution, TransportOperator, near_light
 from ..radiosity._gather import GatherOperator
+from ..radiosity._sampled_gather import SampledGather
 from ..scene import Scene
 from ..spectral import Spectrum
 from ._spectral import SpectralSetup, solve_spectral
@@ -122,8 +123,10 @@ class Level:
     radiosity_xyz
         ``(networks, 3, patches)`` CIE XYZ of the radiosity (Y = ``radiosity``), or None.
     patch_indirect
-        ``(networks, patches)`` gathered inter-reflected irradiance (lx) of a fine level; None
-        on the coarse level, where it is ``F·B`` (:meth:`LightingSolution.patch_illuminance`).
+        ``(networks, patches)`` gathered inter-reflected irradiance (lx) of a fine level, or of
+        the coarse one after a sampled transport's final gather (``radiosity._sampled_gather``);
+        else None on the coarse level, where it is ``F·B``
+        (:meth:`LightingSolution.patch_illuminance`).
     """
 
     patches: Patches | None
@@ -164,6 +167,10 @@ class LightingSolution:
         ``(networks, 3, points)`` CIE XYZ of the total illuminance (Y in lx), or None.
     solve_method, solve_tolerance, solve_max_steps
         The ``[solver]`` settings an incremental re-shot solves with.
+    final_gather
+        The sampled transport's final gather (``[solver] final_gather_rays``), which an
+        incremental re-shot gathers through too: the same rows, so a re-shot luminaire's
+        light adds exactly; None without one.
     """
 
     scene: Scene
@@ -180,6 +187,7 @@ class LightingSolution:
     solve_max_steps: int = 1000
     stats: dict = field(default_factory=dict)
     fine: Level | None = None
+    final_gather: SampledGather | None = None
 
     @property
     def display(self) -> Level:
@@ -206,7 +214,7 @@ class LightingSolution:
         of one per network, and the same shape as the row sums' product, so a process that
         writes ``patches.vtp`` compiles that product once, not twice."""
         d = np.asarray(dimmers, np.float64)
-        if self.fine is not None or self.transport is None:
+        if self.fine is not None or self.transport is None or self.coarse.patch_indirect is not None:
             return d @ self.display_patch_illuminance()
         with float64_scope(_float64(self)):
             b = to_device((d @ self.coarse.radiosity)[:, None], _dtype(self))
@@ -229,9 +237,12 @@ class LightingSolution:
     def patch_illuminance(self) -> Float[np.ndarray, "net patches"]:
         """Irradiance on each patch per network (lx): direct + F'·B (luminous), with F' the
         row-corrected form factors the solve used (``radiosity.row_correction``), so that
-        B = ρE holds patch by patch."""
+        B = ρE holds patch by patch; after a sampled transport's final gather, the irradiance
+        it gathered (``coarse.patch_indirect``), for which B = ρE holds too."""
         if self.transport is None:
             return self.coarse.patch_direct
+        if self.coarse.patch_indirect is not None:
+            return self.coarse.patch_direct + self.coarse.patch_indirect
         with float64_scope(_float64(self)):
             b = to_device(self.coarse.radiosity.T, _dtype(self))
             fb = np.asarray(_corrected_matmul(self.transport, b)).T
@@ -293,6 +304,8 @@ class LightingSolution:
                          [d.spectrum for d in deltas], np.stack([d.points for d in deltas]))
             for q, d in enumerate(deltas):
                 coarse.radiosity[d.network] += shot.radiosity[q]
+                if coarse.patch_indirect is not None:
+                    coarse.patch_indirect[d.network] += _needed(shot.patch_indirect)[q]
                 point_indirect[d.network] += shot.point_indirect[q]
                 if point_xyz is not None:
                     coarse.radiosity_xyz[d.network] += shot.radiosity_xyz[q]
@@ -367,9 +380,12 @@ class Shot:
     result: RadiositySolution
     timing_s: dict = field(default_factory=dict)
     value: Float[np.ndarray, "patches src w"] | None = None  # the spectral radiosity solved
+    # the final gather's inter-reflected irradiance (lx) on the patches (None without one)
+    patch_indirect: Float[np.ndarray, "src patches"] | None = None
 
 
-def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=None) -> Shot:
+def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=None,
+          gather_progress=None) -> Shot:
     """Solve and gather the inter-reflected light of sources with these direct irradiances.
 
     Parameters
@@ -379,6 +395,10 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
         (group) with spectrum ``spectra[i]`` (None: the default).
     progress
         Called as ``progress(done, total)`` in solved columns (sources × wavelengths).
+    gather_progress
+        Called as ``progress(done, total)`` in patches by a sampled transport's final gather
+        (``sol.final_gather``; module ``radiosity._sampled_gather``), which runs once over all
+        the columns after the last batch is solved, before the gather onto the points.
 
     Sources are solved and gathered in batches of as many as the solve's memory budget takes
     (``radiosity._estimate.solve_column_batch``; one batch when all fit): each batch's B₀, its
@@ -405,12 +425,13 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
     n_batches = -(-n_src // per)
     bounds = [n_src * k // n_batches for k in range(n_batches + 1)]
     transmission = sp.transmission(sol.coarse.patches)
-    b = e_ind = None
-    parts, solve_s, gather_s = [], 0.0, 0.0
+    spans = list(zip(bounds[:-1], bounds[1:], strict=True))
+    b = None
+    parts, solve_s, timing = [], 0.0, {}
     columns = n_src * n_w
     if progress is not None:
         progress(0, columns)
-    for k, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
+    for k, (lo, hi) in enumerate(spans):
         t = time.perf_counter()
         told = None if progress is None else (  # batch k is the k-th equal share
             lambda done, total, k=k: progress(columns * (k * total + done) // (n_batches * total),
@@ -419,20 +440,35 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
                                   transmission=transmission, solver=sol.solve_method,
                                   rtol=sol.solve_tolerance, max_steps=sol.solve_max_steps,
                                   progress=told)  # (P, src, W)
-        t1 = time.perf_counter()
-        e_k = np.asarray(gather(to_device(b_k, dtype)), np.float64)  # (N, src, W)
-        gather_s += time.perf_counter() - t1
-        solve_s += t1 - t
+        solve_s += time.perf_counter() - t
         if per >= n_src:
-            b, e_ind = b_k, e_k
+            b = b_k
         else:
             if b is None:
                 b = np.empty((n, n_src, n_w), np.float64)
-                e_ind = np.empty((e_k.shape[0], n_src, n_w), np.float64)
-            b[:, lo:hi], e_ind[:, lo:hi] = b_k, e_k
+            b[:, lo:hi] = b_k
         parts.append(res)
-        del b_k, e_k
+        del b_k
     res = join_solutions(parts)
+    b = _needed(b)
+    indirect = None
+    if sol.final_gather is not None:
+        t = time.perf_counter()
+        g = _gather_finally(sol, b, patch_direct, s, transmission, gather_progress)
+        indirect = np.einsum("sw,psw->sp", h[:, 1], g)  # (src, P) lx, luminous
+        timing["sampled_final_gather"] = time.perf_counter() - t
+        del g
+    t = time.perf_counter()
+    e_ind = None
+    for lo, hi in spans:  # the sources' batches again: one batch's float32 copy at a time
+        e_k = np.asarray(gather(to_device(b[:, lo:hi], dtype)), np.float64)  # (N, src, W)
+        if e_ind is None:
+            e_ind = e_k if len(spans) == 1 else np.empty((e_k.shape[0], n_src, n_w))
+        if len(spans) > 1:
+            e_ind[:, lo:hi] = e_k
+        del e_k
+    gather_s = time.perf_counter() - t
+    e_ind = _needed(e_ind)
     b_xyz = np.einsum("scw,psw->scp", h, b)  # (src, 3, P)
     ind_xyz = np.einsum("scw,nsw->scn", h, e_ind)  # (src, 3, N)
     colour = np.einsum("scw,sw->sc", h, s)  # XYZ of each source's light, Y = 1
@@ -441,9 +477,40 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
     return Shot(
         radiosity=b_xyz[:, 1], radiosity_xyz=b_xyz if spectral else None,
         point_indirect=ind_xyz[:, 1], point_xyz=point_xyz if spectral else None, result=res,
-        timing_s={"solve": solve_s, "gather": gather_s},
-        value=b,
+        timing_s={"solve": solve_s, **timing, "gather": gather_s},
+        value=b, patch_indirect=indirect,
     )
+
+
+def _gather_finally(sol: LightingSolution, b, patch_direct, s, transmission, progress=None):
+    """The sampled transport's final gather (``radiosity._sampled_gather``) of the solved
+    ``b`` ``(P, src, W)`` (lm/m² per unit of Y), in place: ``H = E s + F_g (c b)``, then
+    ``b = ρ H + τ H[partner]``. Returns ``F_g (c b)`` ``(P, src, W)`` (lx per unit of Y)."""
+    from ..radiosity._solve import row_correction
+
+    sp, patches = _needed(sol.spectral), _needed(sol.coarse.patches)
+    n, n_src, n_w = b.shape
+    # the light each patch passes on as the solve's corrected rows did (F_ij → F_ij c_j)
+    c = np.asarray(row_correction(_needed(sol.transport).row_sums())[0], np.float64)
+    g, _ = _needed(sol.final_gather)(patches, sol.scene.raycaster, b.reshape(n, -1),
+                                     outgoing=c, progress=progress)
+    g = g.reshape(n, n_src, n_w)
+    e = np.asarray(patch_direct, np.float64).T  # (P, src) lx
+    s = np.asarray(s, np.float64)
+    rho = np.asarray(sp.rho, np.float64)  # (P, W)
+
+    def total(rows):  # H: direct plus gathered irradiance, (rows, src, W)
+        return e[rows, :, None] * s[None] + g[rows]
+
+    tau, partner = ((None, None) if transmission is None else
+                    (np.asarray(transmission[0], np.float64), np.asarray(transmission[1])))
+    step = max(1, (1 << 22) // max(n_src * n_w, 1))  # rows a chunk: no patch-sized temporary
+    for a in range(0, n, step):
+        rows = np.arange(a, min(a + step, n))
+        b[rows] = rho[rows, None, :] * total(rows)
+        if tau is not None:
+            b[rows] += tau[rows, None, :] * total(partner[rows])
+    return g
 
 
 def _sampled_direct(scene: Scene, level: Level) -> Float[np.ndarray, " patches"]:

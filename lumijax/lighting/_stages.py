@@ -31,6 +31,7 @@ from ..radiosity import (
     GatherOperator,
     PartitionSettings,
     Patches,
+    SampledGather,
     SampledNoise,
     SampledSettings,
     TransportOperator,
@@ -193,6 +194,9 @@ class Transport:
     sampled, bright
         The sampled transport's settings and the patches its aimed rays were aimed at (what
         :func:`transport_noise` casts again); None for the block operator.
+    final
+        The sampled transport's final gather (``[solver] final_gather_rays``, or what
+        ``rays_per_patch = "auto"`` found 3 % per patch needs); None without one.
     """
 
     operator: TransportOperator
@@ -203,6 +207,7 @@ class Transport:
     seconds: float
     sampled: SampledSettings | None = None
     bright: BrightPatches | None = None
+    final: SampledGather | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -379,7 +384,6 @@ def bound_sampled(scene: Scene, meshed: Meshed, settings: SolverSettings) -> Non
 
 
 def _sampled_bound(scene: Scene, patches: Patches, settings: SolverSettings, dtype):
-    from ..radiosity._estimate import bound_sampled_memory
 
     # the solve's columns too (one batch at least, and every column's result on the host):
     # one group per network and sample wavelength, the fewest the solve can have
@@ -415,31 +419,29 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
         return operator, bool(hit)
 
     operator, hit = build(ss)
-    if settings.rays_per_patch == "auto" and direct is not None and direct.patches is not None:
+    final = settings.final_gather_rays
+    if (final is None and settings.rays_per_patch == "auto" and direct is not None
+            and direct.patches is not None):
         rays = _rays_for_noise(scene, patches, settings, operator, ss, bright, direct, dtype)
-        if rays > ss.rays_per_patch:
-            share = _links_per_ray(operator, patches.n)
-            ss = dataclasses.replace(ss, rays_per_patch=rays)
-            estimate = bound_sampled_memory(
-                patches.n, rays, itemsize=np.dtype(dtype).itemsize, file=scene.source,
-                columns=len(scene.networks) * max(settings.spectral_samples, 1),
-                links_per_ray=share)
-            del operator  # its links, before the second build's
-            operator, hit = build(ss)
+        final = rays if rays > ss.rays_per_patch else None
+    # the final gather's rows: a seed of their own (the operator's is seed, its noise
+    # estimate's seed + 1), independent of the rows the radiosity was solved with
+    gather = None if final is None else SampledGather(
+        dataclasses.replace(ss, rays_per_patch=int(final), seed=ss.seed + 2), bright)
     return Transport(operator, hit, int(estimate.stored_bytes), bound_s, None,
-                     time.perf_counter() - t, sampled=ss, bright=bright)
+                     time.perf_counter() - t, sampled=ss, bright=bright, final=gather)
 
 
 def _rays_for_noise(scene: Scene, patches: Patches, settings: SolverSettings, operator, ss,
                     bright, direct: DirectLight, dtype) -> int:
-    """``rays_per_patch = "auto"``: the rays a patch for 0.9 × :data:`NOISE_WARN` noise per patch,
-    from the first build's (:func:`~lumijax.radiosity.sampled_noise` for a one-column solve:
-    every group's direct light at full output, luminous), at most what fits in memory beside
-    the solve and 65,536. The noise falls about as rays^-1/2 (docs/radiosity.md)."""
+    """``rays_per_patch = "auto"``: the final gather's rays a patch for 0.9 × :data:`NOISE_WARN`
+    noise per patch, from the first build's (:func:`~lumijax.radiosity.sampled_noise` for a
+    one-column solve: every group's direct light at full output, luminous), at most
+    :data:`AUTO_MOST_RAYS` (the gather's rays are streamed, so memory does not bound them;
+    its time grows like them). The noise falls about as rays^-1/2 (docs/radiosity.md)."""
     import jax.numpy as jnp
 
     from ..radiosity import solve_radiosity
-    from ..radiosity._estimate import sampled_rays_that_fit
 
     rho = _luminous_rho(scene, patches)
     b0 = rho * np.asarray(direct.patches, np.float64).sum(axis=0)
@@ -448,10 +450,13 @@ def _rays_for_noise(scene: Scene, patches: Patches, settings: SolverSettings, op
                           caster=scene.raycaster, bright=bright)
     # aimed a tenth below the warning, so that the second build's own sample lands under it
     want = _rays_for(ss.rays_per_patch, noise.rms, 0.9 * NOISE_WARN)
-    fit = sampled_rays_that_fit(patches.n, itemsize=np.dtype(dtype).itemsize,
-                                columns=len(scene.networks) * max(settings.spectral_samples, 1),
-                                links_per_ray=_links_per_ray(operator, patches.n))
-    return int(min(want, fit, 65536))
+    return int(min(want, AUTO_MOST_RAYS))
+
+
+#: Most rays a patch ``rays_per_patch = "auto"`` gives the final gather: 16 × the first
+#: build's 256, ≈ 4 times less noise (beyond it a scene's noise says its patches are too
+#: coarse for its light, and the warning says what 3 % would take).
+AUTO_MOST_RAYS = 4096
 
 
 def _links_per_ray(operator, n_patches: int) -> float:
@@ -479,16 +484,17 @@ def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosit
                     sampling: Sampling | None = None) -> SampledNoise | None:
     """The sampled transport's own noise per patch for the solved radiosity (every group at
     full output, luminous; :func:`~lumijax.radiosity.sampled_noise`: 4,096 patches' rays cast
-    again with another seed) and, given the gather and the patches' reflectance, the grid
-    points' to first order, with a warning above :data:`NOISE_WARN` that names the rays a
-    patch for 3 %; None for the block operator."""
+    again with another seed) — of its final gather's rows where it has one — and, given the
+    gather and the patches' reflectance, the grid points' to first order, with a warning above
+    :data:`NOISE_WARN` that names the rays a patch for 3 %; None for the block operator."""
     if transport.sampled is None:
         return None
     b = np.asarray(radiosity.shot.radiosity, np.float64).sum(axis=0)
+    final = None if transport.final is None else transport.final.settings
     noise = sampled_noise(transport.operator, meshed.patches, transport.sampled, b,
                           caster=scene.raycaster, bright=transport.bright,
                           gather=None if rays is None else rays.gather,
-                          rho=None if sampling is None else sampling.rho)
+                          rho=None if sampling is None else sampling.rho, final=final)
     if noise.rms > NOISE_WARN:
         from ..radiosity._estimate import sampled_rays_that_fit
 
@@ -498,16 +504,20 @@ def transport_noise(scene: Scene, meshed: Meshed, transport: Transport, radiosit
             meshed.patches.n, itemsize=np.dtype(transport.operator.buckets[0].dtype).itemsize,
             columns=len(scene.networks) * max(1 if sampling is None else sampling.spectral.n, 1),
             links_per_ray=_links_per_ray(transport.operator, meshed.patches.n))
-        most = (f"at most {fit:,} fit" if fit > n else
-                f"no more than these {n:,} fit beside the solve")
-        fix = (f"[solver] rays_per_patch = {enough} would bring it to ≈ 3 %" if enough <= fit
-               else f"≈ 3 % would take ≈ {enough:,} rays a patch and {most} in this "
-                    "machine's memory: a larger [solver] patch_size (fewer patches) or more "
-                    "memory")
+        if final is None and enough <= fit:
+            fix = f"[solver] rays_per_patch = {enough} would bring it to ≈ 3 %"
+        elif enough <= 65536:  # the final gather's rays are streamed: time, not memory
+            fix = (f"[solver] final_gather_rays = {enough} would bring it to ≈ 3 % (rays "
+                   "cast once more and never stored: they take time, not memory)")
+        else:
+            fix = (f"≈ 3 % would take ≈ {enough:,} rays a patch, more than 65,536: a "
+                   "smaller [solver] patch_size (more, smaller patches, each seeing a "
+                   "smoother light)")
+        what = "final gather" if final is not None else "sampled transport"
         points = ("" if noise.points_rms is None else
                   f" (≈ {100 * noise.points_rms:.1f} % at the grid points)")
         warnings.warn(
-            f"the sampled transport's own noise is ≈ {100 * noise.rms:.1f} % RMS per patch of "
+            f"the {what}'s own noise is ≈ {100 * noise.rms:.1f} % RMS per patch of "
             f"the inter-reflected light at {n} rays a patch (estimated by casting "
             f"{noise.patches:,} patches' rays again): the light on each patch (patches.vtp, "
             f"the surface maps) carries it, the grid points, which gather from many patches, "
@@ -574,10 +584,12 @@ def cast_gather_rays(points: np.ndarray, normals: np.ndarray, meshed: Meshed, sc
 
 def solve(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emission,
           direct: DirectLight, meshed: Meshed, transport: Transport, sampling: Sampling,
-          rays: GatherRays, settings: SolverSettings, report: Report | None = None) -> Radiosity:
+          rays: GatherRays, settings: SolverSettings, report: Report | None = None,
+          gather_report: Report | None = None) -> Radiosity:
     """One batched solve ``(I − ρ(λ)F) B = ρ(λ) E s(λ)`` of every group and sample wavelength,
     gathered onto the points (:func:`~lumijax.lighting._solution.shoot`); ``report`` is told
-    the columns solved (groups × wavelengths) after each batch."""
+    the columns solved (groups × wavelengths) after each batch, ``gather_report`` the patches
+    of a sampled transport's final gather (``transport.final``)."""
     k, n = len(scene.networks), meshed.patches.n
     point_direct = emission.per_network(direct.points)
     unlit = LightingSolution(
@@ -587,10 +599,11 @@ def solve(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Emiss
         transport=transport.operator, spectral=sampling.spectral, point_direct=point_direct,
         point_indirect=np.zeros_like(point_direct), point_xyz=None,
         solve_method=settings.method, solve_tolerance=settings.tolerance,
-        solve_max_steps=settings.max_iterations,
+        solve_max_steps=settings.max_iterations, final_gather=transport.final,
     )
     t = time.perf_counter()
-    shot = shoot(unlit, direct.patches, list(emission.spectra), direct.points, progress=report)
+    shot = shoot(unlit, direct.patches, list(emission.spectra), direct.points, progress=report,
+                 gather_progress=gather_report)
     return Radiosity(shot, time.perf_counter() - t)
 
 
@@ -626,6 +639,8 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
     stats["operator_bytes_bound"] = transport.bytes_bound
     if transport.cache_hit is not None:
         stats["operator_cache_hit"] = transport.cache_hit
+    if transport.final is not None:
+        stats["final_gather_rays"] = transport.final.rays_per_patch
     stats.update(operator_bytes=int(transport.operator.nbytes),
                  spectral_samples=sampling.spectral.n, **solve_stats)
     if noise is not None:
@@ -650,7 +665,7 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
                            radiosity=per(fine.radiosity), radiosity_xyz=per(fine.radiosity_xyz))
     coarse = Level(patches=meshed.patches, gather=rays.gather, rho=sampling.rho,
                    patch_direct=per(_needed(direct.patches)), radiosity=per(shot.radiosity),
-                   radiosity_xyz=per(shot.radiosity_xyz))
+                   radiosity_xyz=per(shot.radiosity_xyz), patch_indirect=per(shot.patch_indirect))
     point_direct = per(direct.points)
     return LightingSolution(
         scene=scene, points=points, normals=normals, coarse=coarse, fine=fine_level,
@@ -658,6 +673,7 @@ def assemble(scene: Scene, points: np.ndarray, normals: np.ndarray, emission: Em
         point_indirect=per(shot.point_indirect), point_xyz=per(shot.point_xyz),
         solve_method=settings.method, solve_tolerance=settings.tolerance,
         solve_max_steps=settings.max_iterations, stats={**stats, "timing_s": timing},
+        final_gather=transport.final,
     )
 
 

@@ -57,6 +57,7 @@ from ._sampled import (
     build_sampled as build_sampled,
     sample_batch as sample_batch,
 )
+from ._sampled_gather import SampledGather as SampledGather, gather_sampled as gather_sampled
 from ._slopes import PatchSlopes as PatchSlopes, patch_slopes as patch_slopes
 from ._solve import (
     CLOSED_TOL as CLOSED_TOL,

@@ -91,6 +91,7 @@ def sampled_noise(
     rho: Float[np.ndarray, " patches"] | None = None,
     sample: int = 4096,
     runs: int = 64,
+    final: SampledSettings | None = None,
 ) -> SampledNoise:
     """The own noise per patch of ``operator`` (built by :func:`~lumijax.radiosity.
     build_sampled` from ``patches`` with ``settings`` and ``bright``) for the radiosity
@@ -100,7 +101,10 @@ def sampled_noise(
     triangles); ``triangles``: the scene's triangles when the caster does not hold them.
     ``sample`` patches (all where fewer) in ``runs`` runs; the same arguments give the same
     figure. With ``gather`` (the patches → points :class:`~lumijax.radiosity.GatherOperator`)
-    and ``rho`` (each patch's reflectance, luminous) the points' noise too."""
+    and ``rho`` (each patch's reflectance, luminous) the points' noise too. With ``final``
+    (the settings of a final gather's rows, ``_sampled_gather``) the noise of the light that
+    gather gives each patch: the sample's rows cast with those settings, and again with their
+    seed + 1."""
     from ._gather import _locator
     from ._sampled import PatchLocator
     from ._solve import row_correction
@@ -108,13 +112,14 @@ def sampled_noise(
     t0 = time.perf_counter()
     n = patches.n
     m = min(sample, n)
+    rows_of = settings if final is None else final
     if m == 0:
-        return SampledNoise(0.0, 0.0, 0, settings.rays_per_patch, 0.0)
+        return SampledNoise(0.0, 0.0, 0, rows_of.rays_per_patch, 0.0)
     length = max(1, m // max(1, min(runs, m)))
     starts = np.unique(np.linspace(0, n - length, max(1, m // length)).round().astype(int))
     spans = [(int(a), int(a) + length) for a in starts]
     # one compiled ray kernel for runs of this length, and an independent sample of each row
-    again = dataclasses.replace(settings, seed=settings.seed + 1, batch=length)
+    again = dataclasses.replace(rows_of, seed=rows_of.seed + 1, batch=length)
     locator = _locator(patches, caster)
     if locator is None:
         locator = PatchLocator(patches, np.asarray(
@@ -127,14 +132,20 @@ def sampled_noise(
                    np.float64)[:, 0]
     area = np.asarray(patches.area, np.float64)
     rows = np.concatenate([np.arange(a, z) for a, z in spans])
-    again_x = np.zeros(n)
-    for a, z in spans:
-        r, s, w, _ = sample_batch(patches, caster, a, z, again, locator, front, bright)
-        again_x += np.bincount(r, weights=np.asarray(w, np.float64) * b[s], minlength=n)
-    xs, again_x, area = x[rows], again_x[rows] / area[rows], area[rows]
+
+    def cast(s_):  # the sample's rows of another sample of F, times b (lx · m²)
+        out = np.zeros(n)
+        for a, z in spans:
+            r, s, w, _ = sample_batch(patches, caster, a, z, s_, locator, front, bright)
+            out += np.bincount(r, weights=np.asarray(w, np.float64) * b[s], minlength=n)
+        return out
+
+    again_x = cast(again)
+    xs = x[rows] if final is None else cast(dataclasses.replace(final, batch=length))[rows] / area[rows]
+    again_x, area = again_x[rows] / area[rows], area[rows]
     field = np.sum(area * xs**2)
     if field <= 0:  # nothing lit reaches the sample
-        return SampledNoise(0.0, 0.0, len(rows), settings.rays_per_patch,
+        return SampledNoise(0.0, 0.0, len(rows), rows_of.rays_per_patch,
                             time.perf_counter() - t0)
     rms = float(np.sqrt(np.sum(area * (xs - again_x) ** 2) / 2.0 / field))
     mean = float(np.sum(area * (xs - again_x)) / np.sum(area * xs))
@@ -142,7 +153,7 @@ def sampled_noise(
     if gather is not None and rho is not None and gather.n_patches == n:
         points = _points_noise(gather, np.asarray(radiosity, np.float64).reshape(n),
                                rms * np.asarray(rho, np.float64) * x)
-    return SampledNoise(rms, mean, len(rows), settings.rays_per_patch, time.perf_counter() - t0,
+    return SampledNoise(rms, mean, len(rows), rows_of.rays_per_patch, time.perf_counter() - t0,
                         points)
 
 

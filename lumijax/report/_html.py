@@ -388,7 +388,7 @@ def report_context(study: Study, results: Results, *, cameras=None, pictures: bo
             "patches": None if results.lighting is None or results.lighting.coarse.patches is None
             else results.lighting.coarse.patches.n,
             "compute_s": f"{results.timing_s.get('total', 0.0):.1f}",
-            "noise": _noise_text(solver.get("sampled_noise")),
+            "noise": _noise_text(solver.get("sampled_noise"), solver.get("final_gather_rays")),
         },
         "grids": grids, "networks": networks, "any_power": any_power,
         "photometry": photometry, "views": views, "notes": notes,
@@ -403,13 +403,17 @@ def report_context(study: Study, results: Results, *, cameras=None, pictures: bo
     }
 
 
-def _noise_text(noise: dict | None) -> str | None:
+def _noise_text(noise: dict | None, final_rays: int | None = None) -> str | None:
     """The sampled transport's own noise as the report's footer states it (docs/radiosity.md,
-    "Own noise, stated with every run"); None for the block operator."""
+    "Own noise, stated with every run"), its final gather's where it has one; None for the
+    block operator."""
     if not noise:
         return None
     points = noise.get("points_rms")
-    return (f"{noise['rays_per_patch']:,} rays a patch, own noise ≈ {100 * noise['rms']:.1f} % "
+    rays = f"{noise['rays_per_patch']:,} rays a patch"
+    if final_rays is not None:
+        rays = f"a final gather of {rays}"
+    return (f"{rays}, own noise ≈ {100 * noise['rms']:.1f} % "
             "RMS per patch" + ("" if points is None else
                                f", ≈ {100 * points:.1f} % at the grid points"))
 
