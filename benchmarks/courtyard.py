@@ -87,8 +87,10 @@ def main(argv=None) -> None:
                    help="elements of the two-level operator (default: the study's; 0: one level)")
     p.add_argument("--transport", choices=("blocks", "sampled"), default="blocks")
     p.add_argument("--rays-per-patch", type=lambda v: v if v == "auto" else int(v), default=256,
-                   help="sampled transport: rays a patch, or auto (as many as ≈ 3 %% noise per "
-                        "patch needs, at most what fits)")
+                   help="sampled transport: rays a patch, or auto (the operator at 256 and a "
+                        "final gather of as many as ≈ 3 %% noise per patch needs)")
+    p.add_argument("--final-gather-rays", type=int, default=None,
+                   help="sampled transport: rays a patch of its final gather (none by default)")
     p.add_argument("--aimed-share", type=float, default=0.25,
                    help="sampled transport: the share of rays aimed at the lit patches")
     p.add_argument("--stop-after", default=None, help="stage name to stop after")
@@ -152,7 +154,8 @@ def main(argv=None) -> None:
                               gather_rays=c.gather_rays, spectral_samples=c.spectral_samples,
                               operator_patches=c.operator_patches, transport=args.transport,
                               rays_per_patch=args.rays_per_patch,
-                              aimed_share=args.aimed_share)
+                              aimed_share=args.aimed_share,
+                              final_gather_rays=args.final_gather_rays)
     def quiet(done, total):  # the stages' progress, kept for --progress
         events.append((time.perf_counter(), done, total))
 
@@ -174,7 +177,9 @@ def main(argv=None) -> None:
         i = tr.operator.info
         return (f"{tr.operator.nbytes / 2**30:.2f} GiB stored, {i['links_per_patch']:.0f} links "
                 f"per patch; {i['rays']:,} rays ({i['ray_time_s']:.0f} s in Embree, build "
-                f"{i['rays_per_s'] / 1e6:.2f} M rays/s)")
+                f"{i['rays_per_s'] / 1e6:.2f} M rays/s)"
+                + ("" if tr.final is None else
+                   f"; final gather {tr.final.rays_per_patch:,} rays a patch"))
 
     def light():
         return stage("direct light, patches" if meshed.fine is None else
@@ -222,7 +227,8 @@ def main(argv=None) -> None:
                       lambda r: f"{len(emission.spectra)} emission groups × "
                                 f"{sampling.spectral.n} λ, "
                                 f"{r.stats()['columns_solved']} columns solved, "
-                                f"{r.stats()['iterations']} iterations")
+                                f"{r.stats()['iterations']} iterations; "
+                                + ", ".join(f"{k} {v:.1f} s" for k, v in r.shot.timing_s.items()))
     if args.transport == "sampled":  # the error beside the figures, measured at this scale
         stage("own noise (4,096 patches' rays cast again)",
               lambda: stg.transport_noise(sc, meshed, transport, radiosity, rays, sampling),

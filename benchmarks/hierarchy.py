@@ -23,7 +23,9 @@ at the lit patches (``radiosity/_bright.py``, the proposal a study's pipeline ma
 the inter-reflected irradiance's area-weighted mean difference and RMS per patch (relative to
 the field's RMS, as tests/lighting/test_final_gather.py defines it), and beside it the
 operator's own noise as a study states it (``radiosity/_noise.py``: 4,096 patches' rays cast
-again with another seed, for the sampled solution). ``--noise-split`` adds,
+again with another seed, for the sampled solution). ``--final-rays N …`` adds, for each
+operator, its radiosity gathered once more with N rays a patch (``radiosity/_sampled_gather.py``,
+``[solver] final_gather_rays``) and that gather's own noise. ``--noise-split`` adds,
 for each ``--rays``, where the sampled operator's own noise lies by the distance of the pair
 and what sharing far hits between coplanar neighbours does (``_noise_split``).
 
@@ -108,6 +110,10 @@ def main(argv=None) -> None:
                     help="with --accuracy: where the sampled operator's own noise lies (two "
                          "seeds, split by the distance of the pair) and what sharing the far "
                          "hits between coplanar neighbours would do")
+    ap.add_argument("--final-rays", type=int, nargs="+", default=[], metavar="N",
+                    help="with --accuracy: each operator's radiosity gathered once more with N "
+                         "rays a patch (radiosity/_sampled_gather.py, [solver] "
+                         "final_gather_rays)")
     args = ap.parse_args(argv)
     if args.transport == "sampled":
         return sampled_main(args)
@@ -362,8 +368,10 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
         bright_patches,
         build_operator,
         build_sampled,
+        gather_sampled,
         mesh_patches,
         partition,
+        row_correction,
         sampled_noise,
         solve_radiosity,
     )
@@ -423,6 +431,20 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
                   f"{op.info['links_per_patch']:.0f} | {m:+.2%} | {r:.2%} | {m1:+.2%} | "
                   f"{r1:.2%} | {mo:+.2%}, {ro:.2%} | {noise.rms:.2%} ({noise.seconds:.1f} s) |",
                   flush=True)
+            c = np.asarray(row_correction(op.row_sums())[0], np.float64)
+            for f in args.final_rays:  # the final gather: another seed, never stored
+                fs = SampledSettings(rays_per_patch=f, seed=2)
+                t = time.perf_counter()
+                g, _ = gather_sampled(p, caster, fs, np.asarray(b, np.float64), outgoing=c,
+                                      bright=aimed)
+                dt = time.perf_counter() - t
+                m, r = cmp(g[:, 0], ref)
+                mo, ro = cmp(g[:, 0], ref, open_)
+                noise = sampled_noise(op, p, SampledSettings(rays_per_patch=n),
+                                      np.asarray(b)[:, 0], caster=caster, bright=aimed, final=fs)
+                print(f"| {n}, gathered with {f} | {kind} | {dt:.1f} (gather) | — | — | "
+                      f"{m:+.2%} | {r:.2%} | — | — | {mo:+.2%}, {ro:.2%} | "
+                      f"{noise.rms:.2%} ({noise.seconds:.1f} s) |", flush=True)
             if args.fine and n == args.rays[-1] and aimed is None:
                 last = (op, x, n)
             else:
