@@ -371,7 +371,12 @@ def _float64(sol: LightingSolution) -> bool:
 
 @dataclass(frozen=True)
 class Shot:
-    """Light shot by a set of sources (one row each) into the scene."""
+    """Light shot by a set of sources (one row each) into the scene.
+
+    ``result`` carries the solve's figures (products, residual, result code, the escaped and
+    created fractions); its ``value`` is empty, ``(patches, 0)``: the radiosity is ``value``
+    (float64, spectrum applied), and keeping the solve's own float32 copy of every column
+    beside it held a third more memory at the end of a large solve."""
 
     radiosity: Float[np.ndarray, "src patches"]
     radiosity_xyz: Float[np.ndarray, "src 3 patches"] | None
@@ -447,8 +452,9 @@ def shoot(sol: LightingSolution, patch_direct, spectra, point_direct, progress=N
             if b is None:
                 b = np.empty((n, n_src, n_w), np.float64)
             b[:, lo:hi] = b_k
-        parts.append(res)
-        del b_k
+        # the figures only: b holds the values (class docstring)
+        parts.append(dataclasses.replace(res, value=to_device(np.empty((n, 0), np.float32))))
+        del b_k, res
     res = join_solutions(parts)
     b = _needed(b)
     indirect = None
