@@ -21,7 +21,7 @@ docs/radiosity.md) the operator and the solve run on coarse elements and the fin
 direct light on the fine patches (the elements get its area means), the coarse solve, then the
 fine gather rays and the reflection onto the fine patches, and patches.vtp of the fine level.
 With ``--progress``, each stage that reports progress (direct light, gather rays, the solve's
-columns) is checked against the progress bar's rule (``lumijax.cli._time_left``: the stage's
+columns, a sampled transport's final gather on the patches) is checked against the progress bar's rule (``lumijax.cli._time_left``: the stage's
 rate since its first chunk was done): the time left it would have shown at 25/50/75/90 % of the
 stage, beside the time the stage then really took.
 A sampling thread reads the process RSS every 20 ms, so each stage reports its
@@ -221,14 +221,22 @@ def main(argv=None) -> None:
                              np.dtype(transport.operator.area.dtype).itemsize)
     print(f"  solve: {cols} columns, at most {per} a batch "
           f"({available_memory_bytes() / 2**30:.1f} GiB available)", flush=True)
+    gathered: list[tuple[float, int, int]] = []  # the final gather's reports, apart
+
+    def gathering(done, total):
+        gathered.append((time.perf_counter(), done, total))
+
     radiosity = stage("solve (all networks) + gather",
                       lambda: stg.solve(sc, points, normals, emission, direct, meshed,
-                                        transport, sampling, rays, settings, quiet),
+                                        transport, sampling, rays, settings, quiet, gathering),
                       lambda r: f"{len(emission.spectra)} emission groups × "
                                 f"{sampling.spectral.n} λ, "
                                 f"{r.stats()['columns_solved']} columns solved, "
                                 f"{r.stats()['iterations']} iterations; "
                                 + ", ".join(f"{k} {v:.1f} s" for k, v in r.shot.timing_s.items()))
+    if args.progress and gathered:  # it ends with its last report (all patches gathered)
+        print(f"    final gather on patches: {_progress_truth(gathered, gathered[-1][0])}",
+              flush=True)
     if args.transport == "sampled":  # the error beside the figures, measured at this scale
         stage("own noise (4,096 patches' rays cast again)",
               lambda: stg.transport_noise(sc, meshed, transport, radiosity, rays, sampling),

@@ -21,7 +21,8 @@ luminaires (direct light with shadows, every network at dimmer 1, luminous), ρ 
 facades and 0.3 on the ground, with cosine-weighted rays only and with a quarter of them aimed
 at the lit patches (``radiosity/_bright.py``, the proposal a study's pipeline makes); it prints
 the inter-reflected irradiance's area-weighted mean difference and RMS per patch (relative to
-the field's RMS, as tests/lighting/test_final_gather.py defines it), and beside it the
+the field's RMS, as tests/lighting/test_final_gather.py defines it) — over all patches, the
+open ones (wholly outside the model) and those not wholly inside it — and beside it the
 operator's own noise as a study states it (``radiosity/_noise.py``: 4,096 patches' rays cast
 again with another seed, for the sampled solution). ``--final-rays N …`` adds, for each
 operator, its radiosity gathered once more with N rays a patch (``radiosity/_sampled_gather.py``,
@@ -364,6 +365,7 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
     from lumijax.direct import direct_illuminance
     from lumijax.lighting._pipeline import auto_patch_size
     from lumijax.radiosity import (
+        SampledGather,
         SampledSettings,
         bright_patches,
         build_operator,
@@ -384,6 +386,7 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
     inside = _inside(p, caster)
     a = p.area
     open_ = inside == 0
+    seen = inside < 1  # some of the patch outside the model: a viewer can see that part
     print(f"  patches inside the model (column prisms, feet): {(inside == 1).sum():,} wholly, "
           f"{((inside > 0) & (inside < 1)).sum():,} in part; {np.sum(a * inside) / a.sum():.1%} "
           "of the area", flush=True)
@@ -411,8 +414,9 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
     proposal = bright_patches(by_network * a, p)
     print("\n| rays per patch | rays | build (s) | MiB | links per patch | indirect mean | indirect "
           "RMS per patch | first bounce mean | first bounce RMS | open patches: indirect mean, "
-          "RMS | own noise, estimated (radiosity/_noise.py) |")
-    print("|" + "---|" * 11)
+          "RMS | patches not wholly inside: mean, RMS | own noise, estimated "
+          "(radiosity/_noise.py) |")
+    print("|" + "---|" * 12)
     for n in args.rays:
         for aimed in (None, proposal):
             t = time.perf_counter()
@@ -424,26 +428,29 @@ def _accuracy(args, study, tri, group, area, caster) -> None:
             m, r = cmp(x, ref)
             m1, r1 = cmp(np.asarray(op.matmul(b0), np.float64)[:, 0], ref1)
             mo, ro = cmp(x, ref, open_)
+            mv, rv = cmp(x, ref, seen)
             noise = sampled_noise(op, p, SampledSettings(rays_per_patch=n), np.asarray(b)[:, 0],
                                   caster=caster, bright=aimed)
             kind = "cosine" if aimed is None else f"{op.info['settings']['aimed_rays']} aimed"
             print(f"| {n} | {kind} | {dt:.1f} | {op.nbytes / 2**20:.0f} | "
                   f"{op.info['links_per_patch']:.0f} | {m:+.2%} | {r:.2%} | {m1:+.2%} | "
-                  f"{r1:.2%} | {mo:+.2%}, {ro:.2%} | {noise.rms:.2%} ({noise.seconds:.1f} s) |",
+                  f"{r1:.2%} | {mo:+.2%}, {ro:.2%} | {mv:+.2%}, {rv:.2%} | "
+                  f"{noise.rms:.2%} ({noise.seconds:.1f} s) |",
                   flush=True)
             c = np.asarray(row_correction(op.row_sums())[0], np.float64)
             for f in args.final_rays:  # the final gather: another seed, never stored
-                fs = SampledSettings(rays_per_patch=f, seed=2)
+                fs = SampledGather.of(SampledSettings(rays_per_patch=n), f).settings
                 t = time.perf_counter()
                 g, _ = gather_sampled(p, caster, fs, np.asarray(b, np.float64), outgoing=c,
                                       bright=aimed)
                 dt = time.perf_counter() - t
                 m, r = cmp(g[:, 0], ref)
                 mo, ro = cmp(g[:, 0], ref, open_)
+                mv, rv = cmp(g[:, 0], ref, seen)
                 noise = sampled_noise(op, p, SampledSettings(rays_per_patch=n),
                                       np.asarray(b)[:, 0], caster=caster, bright=aimed, final=fs)
                 print(f"| {n}, gathered with {f} | {kind} | {dt:.1f} (gather) | — | — | "
-                      f"{m:+.2%} | {r:.2%} | — | — | {mo:+.2%}, {ro:.2%} | "
+                      f"{m:+.2%} | {r:.2%} | — | — | {mo:+.2%}, {ro:.2%} | {mv:+.2%}, {rv:.2%} | "
                       f"{noise.rms:.2%} ({noise.seconds:.1f} s) |", flush=True)
             if args.fine and n == args.rays[-1] and aimed is None:
                 last = (op, x, n)

@@ -384,7 +384,6 @@ def bound_sampled(scene: Scene, meshed: Meshed, settings: SolverSettings) -> Non
 
 
 def _sampled_bound(scene: Scene, patches: Patches, settings: SolverSettings, dtype):
-
     # the solve's columns too (one batch at least, and every column's result on the host):
     # one group per network and sample wavelength, the fewest the solve can have
     columns = len(scene.networks) * max(settings.spectral_samples, 1)
@@ -424,10 +423,9 @@ def _sampled_transport(scene: Scene, patches: Patches, settings: SolverSettings,
             and direct.patches is not None):
         rays = _rays_for_noise(scene, patches, settings, operator, ss, bright, direct, dtype)
         final = rays if rays > ss.rays_per_patch else None
-    # the final gather's rows: a seed of their own (the operator's is seed, its noise
-    # estimate's seed + 1), independent of the rows the radiosity was solved with
-    gather = None if final is None else SampledGather(
-        dataclasses.replace(ss, rays_per_patch=int(final), seed=ss.seed + 2), bright)
+    # the final gather's rows: a seed of their own, independent of the rows the radiosity was
+    # solved with (SampledGather.of)
+    gather = None if final is None else SampledGather.of(ss, int(final), bright)
     return Transport(operator, hit, int(estimate.stored_bytes), bound_s, None,
                      time.perf_counter() - t, sampled=ss, bright=bright, final=gather)
 
@@ -448,7 +446,7 @@ def _rays_for_noise(scene: Scene, patches: Patches, settings: SolverSettings, op
     b = solve_radiosity(operator, jnp.asarray(rho, dtype), jnp.asarray(b0[:, None], dtype)).value
     noise = sampled_noise(operator, patches, ss, np.asarray(b, np.float64)[:, 0],
                           caster=scene.raycaster, bright=bright)
-    # aimed a tenth below the warning, so that the second build's own sample lands under it
+    # aimed a tenth below the warning, so that the final gather's own sample lands under it
     want = _rays_for(ss.rays_per_patch, noise.rms, 0.9 * NOISE_WARN)
     return int(min(want, AUTO_MOST_RAYS))
 

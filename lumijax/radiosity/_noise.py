@@ -17,6 +17,10 @@ itself a sample: ≈ 1/√(2 · sample) relative for independent patches, more w
 share their light's texture (the runs); tests/radiosity/test_noise.py checks it against both
 whole operators' difference.
 
+With a final gather (``_sampled_gather``) the rows that give each patch its light are the
+gather's, not the operator's: ``x`` and ``x'`` are then both cast with the gather's settings
+(its seed, and seed + 1), and the figure is the gather's noise.
+
 It is the noise of one product F B with B fixed — what a patch's inter-reflected irradiance
 (``patches.vtp``, the surface maps) carries. B itself carries ρ times it, and a grid point
 gathers from hundreds of patches, so the points' noise is far smaller. Given the gather and
@@ -140,9 +144,12 @@ def sampled_noise(
             out += np.bincount(r, weights=np.asarray(w, np.float64) * b[s], minlength=n)
         return out
 
-    again_x = cast(again)
-    xs = x[rows] if final is None else cast(dataclasses.replace(final, batch=length))[rows] / area[rows]
-    again_x, area = again_x[rows] / area[rows], area[rows]
+    again_x = cast(again)[rows] / area[rows]
+    if final is None:
+        xs = x[rows]
+    else:  # the gather's rows (its settings, the sample's batch length), not the operator's
+        xs = cast(dataclasses.replace(final, batch=length))[rows] / area[rows]
+    area = area[rows]
     field = np.sum(area * xs**2)
     if field <= 0:  # nothing lit reaches the sample
         return SampledNoise(0.0, 0.0, len(rows), rows_of.rays_per_patch,

@@ -152,3 +152,16 @@ def test_a_bad_final_gather_names_the_key(write_study, bad):
                                                  "rays_per_patch = 32\nfinal_gather_rays = 512")
     with pytest.raises(LumijaxError, match="final_gather_rays.*sampled"):
         load_study(write_study(blocks, "b.toml"))
+
+
+def test_a_final_gather_has_its_own_seed_and_batches_of_a_builds_rays():
+    from lumijax.radiosity import SampledGather
+
+    op = SampledSettings(rays_per_patch=256, seed=7)
+    g = SampledGather.of(op, 4096)
+    # independent of the operator (seed) and of its noise estimate (seed + 1)
+    assert g.settings.seed == 9 and g.rays_per_patch == 4096
+    # as many rays a batch as a build's, whatever the gather's rays: memory O(batch)
+    assert g.settings.batch * 4096 == op.batch * 256
+    assert SampledGather.of(op, 64).settings.batch == op.batch  # never more patches
+    assert SampledGather.of(op, 65536).settings.batch >= 16
