@@ -122,6 +122,7 @@ def main(argv=None) -> None:
     st: dict = {}
 
     events: list[tuple[float, int, int]] = []
+    final_events: list[tuple[float, int, int]] = []  # a sampled final gather's, apart
 
     def stage(name, fn, note=lambda r: ""):
         base = _rss()
@@ -134,8 +135,10 @@ def main(argv=None) -> None:
         rows.append((name, dt, sampler.peak, sampler.peak - base, note(out)))
         print(f"  {name}: {dt:.1f} s, peak RSS {sampler.peak / 2**30:.2f} GiB "
               f"(+{(sampler.peak - base) / 2**30:.2f}) {note(out)}", flush=True)
-        if args.progress and events:
-            print(f"    {_progress_truth(events, t + dt)}", flush=True)
+        if args.progress and events:  # the solve's bar ends where the final gather's begins
+            end = (final_events[0][0] if final_events and final_events[0][0] > t
+                   else t + dt)
+            print(f"    {_progress_truth(events, end)}", flush=True)
             print(f"    reports (s into the stage: done/total): {_timeline(events, t)}",
                   flush=True)
         if args.stop_after == name:
@@ -221,10 +224,8 @@ def main(argv=None) -> None:
                              np.dtype(transport.operator.area.dtype).itemsize)
     print(f"  solve: {cols} columns, at most {per} a batch "
           f"({available_memory_bytes() / 2**30:.1f} GiB available)", flush=True)
-    gathered: list[tuple[float, int, int]] = []  # the final gather's reports, apart
-
     def gathering(done, total):
-        gathered.append((time.perf_counter(), done, total))
+        final_events.append((time.perf_counter(), done, total))
 
     radiosity = stage("solve (all networks) + gather",
                       lambda: stg.solve(sc, points, normals, emission, direct, meshed,
@@ -234,8 +235,9 @@ def main(argv=None) -> None:
                                 f"{r.stats()['columns_solved']} columns solved, "
                                 f"{r.stats()['iterations']} iterations; "
                                 + ", ".join(f"{k} {v:.1f} s" for k, v in r.shot.timing_s.items()))
-    if args.progress and gathered:  # it ends with its last report (all patches gathered)
-        print(f"    final gather on patches: {_progress_truth(gathered, gathered[-1][0])}",
+    if args.progress and final_events:  # it ends with its last report (all patches done)
+        print(f"    final gather on patches: "
+              f"{_progress_truth(final_events, final_events[-1][0])}",
               flush=True)
     if args.transport == "sampled":  # the error beside the figures, measured at this scale
         stage("own noise (4,096 patches' rays cast again)",
