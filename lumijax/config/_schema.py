@@ -552,7 +552,8 @@ class SolverConfig(_Model):
     # "blocks": the exact block operator; "sampled": ray-sampled form factors, O(P·rays)
     # memory for open scenes of 10⁵–10⁶ patches (docs/radiosity.md, "Sampled transport")
     transport: Literal["blocks", "sampled"] = "blocks"
-    # "auto": as many as ≈ 3 % noise per patch needs, at most what fits (docs/radiosity.md)
+    # "auto": 256, and a final gather of as many as ≈ 3 % noise per patch needs
+    # (docs/radiosity.md, "Final gather of the sampled transport")
     rays_per_patch: Annotated[int, Field(ge=16, le=65536)] | Literal["auto"] = 256
     # of those, the share aimed at the directly lit patches (radiosity/_bright.py); 0: none
     aimed_share: Annotated[float, Field(ge=0, le=0.9)] = 0.25

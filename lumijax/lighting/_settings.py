@@ -29,8 +29,8 @@ _LIT = 0.05  # a direction counts when its intensity is at least this fraction o
 
 _MFP_RAYS = 4096  # rays of the mean-free-path estimate: its own spread ~1 % (σ/√n of chords)
 
-#: ``rays_per_patch = "auto"``: the rays a patch of the first build, whose measured noise sets
-#: the count of the second (the default count: a broadly lit court reads ≈ 7 % there).
+#: ``rays_per_patch = "auto"``: the rays a patch of the operator, whose measured noise sets the
+#: final gather's (the default count: a broadly lit court reads ≈ 7 % there).
 AUTO_FIRST_RAYS = 256
 
 
@@ -58,8 +58,9 @@ class SolverSettings:
     refine_threshold: float = 0.5
     operator_patches: int | None = None  # two levels: elements for the operator (docs/radiosity.md)
     transport: str = "blocks"  # "sampled": ray-sampled form factors (radiosity/_sampled.py)
-    # rays cast from each patch by the sampled transport; "auto": as many as ≈ 3 % noise per
-    # patch needs, at most what fits (docs/radiosity.md, "Own noise, stated with every run")
+    # rays cast from each patch by the sampled transport; "auto": 256, and a final gather of as
+    # many as ≈ 3 % noise per patch needs (docs/radiosity.md, "Final gather of the sampled
+    # transport")
     rays_per_patch: int | str = 256
     aimed_share: float = 0.25  # of those, aimed at the lit patches (radiosity/_bright.py)
     # rays a patch of the sampled transport's final gather (radiosity/_sampled_gather.py);

@@ -124,6 +124,9 @@ def test_a_study_gathers_finally_reports_and_reshoots(write_study):
     print(f"own noise per patch: 32 rays {was['rms']:.4f}, gathered with 512 {noise['rms']:.4f}")
     assert noise["rms"] < 0.5 * was["rms"]  # 1/√16 of it, by the rays
     assert sol.stats["timing_s"]["sampled_final_gather"] > 0
+    from lumijax.report._html import _noise_text
+
+    assert _noise_text(noise, 512).startswith("a final gather of 512 rays a patch, own noise ≈ ")
     # the patches' light is the gather's, for which B = ρ E holds patch by patch (luminous)
     e = sol.patch_illuminance()
     np.testing.assert_allclose(sol.coarse.radiosity, sol.coarse.rho * e, rtol=1e-9)
