@@ -251,3 +251,32 @@ def test_a_spectral_sum_above_one_names_the_wavelength(tmp_path):
     # wavelength checked above it is 691 nm; the largest sum is 0.45 + 0.6
     assert e.value.key == "materials.m" and "from 691 nm" in e.value.message
     assert "1.0500" in e.value.message
+
+
+def test_a_sampled_final_gather_passes_light_through_the_panel(tmp_path):
+    # the two rooms with the sampled transport and a final gather (radiosity/_sampled_gather.py):
+    # each patch's light is then ρ H + τ H[partner], H its gathered irradiance
+    path = tmp_path / "g.toml"
+    path.write_text(study_text(
+        material("wall", RHO), material("opal", RHO_P, transmittance=TAU, kind="diffuse"),
+        photometry("iso", "isotropic", 1000.0), network("n"), lamp("L", [1, 1, 1]),
+        *_room(0, "wall"), *_room(2, "wall"),
+        rectangle([0, 0, 0], [0, 2, 0], [0, 0, 2], "wall"),
+        rectangle([4, 0, 0], [0, 0, 2], [0, 2, 0], "wall"),
+        rectangle([2, 0, 0], [0, 0, 2], [0, 2, 0], "opal"),
+        point_grid("g", [[3, 1, 0.01]], [0, 0, 1]),
+        table("solver", patch_size=0.5, spectral_samples=0, transport="sampled",
+              rays_per_patch=64, aimed_share=0.0, final_gather_rays=1024)), encoding="utf-8")
+    study = load_study(path)
+    res = compute(study)
+    sol, p, b, e, rho, tau = _solved(study, res)
+    assert sol.stats["final_gather_rays"] == 1024
+    h = sol.patch_illuminance()[0]  # direct + gathered, lx
+    partner = sol.spectral.transmission(p)[1]
+    has = tau > 0
+    want = rho * h + np.where(has, tau * h[np.where(has, partner, 0)], 0.0)
+    np.testing.assert_allclose(b, want, rtol=1e-5)
+    # the closed pair of rooms absorbs what the lamp emits, to the gather's noise
+    absorbed = float(np.sum(p.area * h * (1 - rho - tau)))
+    assert absorbed == pytest.approx(float(np.sum(p.area * e)), rel=0.02)
+    assert res.grids["g"].by_network_lux[0, 0] > 1.0  # room B, lit through the panel only
