@@ -564,10 +564,17 @@ class SolverConfig(_Model):
 
     @model_validator(mode="after")
     def _final_gather_is_sampled(self):
-        if self.final_gather_rays is not None and self.transport != "sampled":
+        n = self.final_gather_rays
+        if n is not None and self.transport != "sampled":
             raise ValueError("'final_gather_rays' gathers the sampled transport's light once "
                              "more: it needs transport = \"sampled\" (the block operator "
                              "has no noise to gather away)")
+        # "auto" builds its operator at 256 rays (lighting._settings.AUTO_FIRST_RAYS)
+        operator = 256 if self.rays_per_patch == "auto" else self.rays_per_patch
+        if n is not None and n <= operator:
+            raise ValueError(f"'final_gather_rays' = {n} is no more than the operator's "
+                             f"{operator} rays a patch: a final gather of fewer rays would add "
+                             "noise, not remove it; give more rays, or leave it out")
         return self
 
 

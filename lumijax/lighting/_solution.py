@@ -170,7 +170,8 @@ class LightingSolution:
     final_gather
         The sampled transport's final gather (``[solver] final_gather_rays``), which an
         incremental re-shot gathers through too: the same rows, so a re-shot luminaire's
-        light adds exactly; None without one.
+        light adds exactly (and costs the gather's rays again: its light reaches every patch
+        after a bounce); None without one.
     """
 
     scene: Scene

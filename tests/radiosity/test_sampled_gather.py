@@ -23,18 +23,8 @@ from lumijax.radiosity import (
 )
 from lumijax.scene._raycast import RayCaster
 
-from .test_noise import _low_lamp_box
+from .test_noise import _low_lamp_box, _room
 from .test_sampled import _furnished_triangles
-
-
-def _lit_room(tri, patch_size):
-    """The furnished room's downlight (test_sampled.py): ρ and the direct irradiance, lx."""
-    p = mesh_patches(tri, patch_size=patch_size)
-    d = np.array([1.0, 0.5, 1.2]) - p.centroid
-    r2 = np.sum(d * d, axis=1)
-    cos = np.clip(np.einsum("ij,ij->i", d, p.normal) / np.sqrt(r2), 0, None)
-    e_dir = 300.0 * cos * np.clip(-d[:, 2] / np.sqrt(r2), 0, None) / r2
-    return p, np.where(p.normal[:, 2] > 0.5, 0.3, 0.7), e_dir
 
 
 def test_the_streamed_rows_are_the_rows_a_build_stores():
@@ -76,11 +66,10 @@ def test_a_closed_room_lit_evenly_keeps_its_exact_light():
 
 
 def test_a_coarse_operator_gathered_finely_reads_as_a_fine_one():
-    tri = _furnished_triangles()
-    p, rho, e_dir = _lit_room(tri, 0.35)
+    tri, p, rho, b0 = _room()  # test_noise.py's: the furnished room under a downlight
     block = build_operator(p, partition(p, 512, occluders=tri), tri)
     caster = RayCaster(tri)
-    b0 = jnp.asarray((rho * e_dir)[:, None], jnp.float32)
+    b0 = jnp.asarray(b0[:, None], jnp.float32)
     a = p.area
 
     def solved(op):
@@ -142,7 +131,7 @@ def test_a_study_gathers_finally_reports_and_reshoots(write_study):
                                rtol=2e-4, atol=1e-3)
 
 
-@pytest.mark.parametrize("bad", [8, "many"])
+@pytest.mark.parametrize("bad", [8, "many", 32])  # 32: no more than the operator's rays
 def test_a_bad_final_gather_names_the_key(write_study, bad):
     from lumijax import load_study
     from lumijax.errors import LumijaxError
